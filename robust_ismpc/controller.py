@@ -1,0 +1,286 @@
+"""The per-cycle loop of (robust) IS-MPC (spec §14): ``reset()`` then ``step(t, measurement)``.
+
+Nominal cycle: read the measurement, build the MPC state (measured CoM, model ZMP), solve the
+QP, apply the first ZMP velocity to the internal LIP model through the exact discretisation, move
+the swing foot, and return a :class:`~robust_ismpc.reference.GaitReference`.
+
+Failure policy (when the QP is infeasible or the solver fails): the cycle plays the previous
+plan shifted by one more sample, for at most ``MpcParams.max_fallback_cycles`` consecutive
+cycles; after that :class:`~robust_ismpc.exceptions.ControllerFailure` is raised. With step
+timing adaptation enabled, an infeasible QP first triggers an adaptation attempt.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .exceptions import ControllerFailure, InfeasibleMpc, ParameterError, SolverError
+from .footsteps import LEFT, FootstepPlan
+from .lip import discretise
+from .mpc import IsmpcQp, MpcPlan, MpcState
+from .params import MpcParams, RobotParams
+from .qp import QpSolver
+from .reference import FootReference, GaitReference, Measurement, Support
+from .swing import SwingState, advance_swing
+
+LOGGER = logging.getLogger("robust_ismpc")
+
+
+@dataclass
+class CycleInfo:
+    """Diagnostics of the last cycle.
+
+    Attributes
+    ----------
+    build_time_s, solve_time_s, cycle_time_s : float
+        QP assembly, solver and whole-step wall-clock times [s].
+    infeasible : bool
+        The QP of this cycle had no solution (a fallback was played).
+    fallback_cycles : int
+        Consecutive cycles played from a previous plan.
+    dcm_m : ndarray, shape (2,)
+        Shifted DCM used by the MPC [m].
+    disturbance_mps2 : ndarray, shape (2,)
+        Disturbance value used by the MPC (zero for nominal IS-MPC) [m/s^2].
+    free_footsteps : int
+        Number of footsteps optimised in this cycle.
+    """
+
+    build_time_s: float = 0.0
+    solve_time_s: float = 0.0
+    cycle_time_s: float = 0.0
+    infeasible: bool = False
+    fallback_cycles: int = 0
+    dcm_m: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    disturbance_mps2: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    free_footsteps: int = 0
+
+
+class _RateLimitedLog:
+    """Log a message at most once per ``period_s`` of controller time, counting the rest."""
+
+    def __init__(self, period_s: float = 1.0):
+        self.period_s = period_s
+        self._last: dict[str, float] = {}
+        self.suppressed = 0
+
+    def warning(self, key: str, t_s: float, message: str) -> None:
+        last = self._last.get(key)
+        if last is None or t_s - last >= self.period_s:
+            self._last[key] = t_s
+            LOGGER.warning("t=%.2f s: %s", t_s, message)
+        else:
+            self.suppressed += 1
+
+
+class IsmpcController:
+    """IS-MPC gait generator with optional robustness modules.
+
+    Parameters
+    ----------
+    robot : RobotParams
+        Robot and gait parameters.
+    mpc : MpcParams, optional
+        MPC settings (defaults).
+    state_feedback_gain : float
+        Blend of the measured CoM into the MPC state each cycle, in [0, 1]: 1 uses the
+        measurement as is (LIP simulation), smaller values filter it through the internal model
+        (full robot, spec §19 pitfall 13).
+    solver : QpSolver, optional
+        QP solver (defaults to ``mpc.solver``).
+    """
+
+    def __init__(
+        self,
+        robot: RobotParams,
+        mpc: MpcParams | None = None,
+        state_feedback_gain: float = 1.0,
+        solver: QpSolver | None = None,
+    ):
+        if not (isinstance(state_feedback_gain, (int, float)) and 0.0 <= state_feedback_gain <= 1.0):
+            raise ParameterError(f"state_feedback_gain must be in [0, 1], got {state_feedback_gain!r}")
+        self.robot = robot
+        self.mpc_params = mpc if mpc is not None else MpcParams()
+        self.qp = IsmpcQp(robot, self.mpc_params, solver)
+        self.eta = robot.eta
+        self.dt = self.mpc_params.sampling_period_s
+        self.lip = discretise(self.eta, self.dt)
+        self.state_feedback_gain = float(state_feedback_gain)
+        self.modules: frozenset[str] = frozenset()
+        self.info = CycleInfo()
+        self._log = _RateLimitedLog()
+        self.plan: FootstepPlan | None = None
+
+    # ------------------------------------------------------------------------------------
+    def reset(
+        self,
+        plan: FootstepPlan,
+        com_pos_m: np.ndarray,
+        com_vel_mps: np.ndarray | None = None,
+        left_foot_m: np.ndarray | None = None,
+        right_foot_m: np.ndarray | None = None,
+        t_s: float = 0.0,
+    ) -> None:
+        """Start a walk.
+
+        Parameters
+        ----------
+        plan : FootstepPlan
+            Footstep plan (the controller adapts it in place).
+        com_pos_m : ndarray, shape (2,) or (3,)
+            Initial CoM [m]; the ZMP starts below it.
+        com_vel_mps : ndarray, shape (2,) or (3,), optional
+            Initial CoM velocity [m/s] (zero).
+        left_foot_m, right_foot_m : ndarray, shape (2,), optional
+            Initial soles (default: from the plan's first footsteps).
+        t_s : float
+            Start time [s]; must lie inside the plan.
+        """
+        com = np.asarray(com_pos_m, dtype=float).reshape(-1)[:2]
+        vel = np.zeros(2) if com_vel_mps is None else np.asarray(com_vel_mps, float).reshape(-1)[:2]
+        if not (np.all(np.isfinite(com)) and np.all(np.isfinite(vel))):
+            raise ParameterError("reset: initial CoM position and velocity must be finite")
+        self.plan = plan
+        plan.step_at(t_s)  # raises PlanError if outside
+        self.state = np.vstack([com, vel, com])  # rows x_c, ẋ_c, x_z; columns x, y
+        self.disturbance_mps2 = np.zeros(2)
+        first = plan.pos_m[1]
+        other = 2.0 * plan.pos_m[0] - first  # the other foot, mirrored about the midpoint
+        first_is_left = plan.side[1] == LEFT
+        left0 = left_foot_m if left_foot_m is not None else (first if first_is_left else other)
+        right0 = right_foot_m if right_foot_m is not None else (other if first_is_left else first)
+        self.feet = {
+            LEFT: SwingState.at_rest(np.asarray(left0, float), plan.yaw_rad[1]),
+            -LEFT: SwingState.at_rest(np.asarray(right0, float), plan.yaw_rad[1]),
+        }
+        self.last_plan: MpcPlan | None = None
+        self.fallback_cycles = 0
+        self.infeasible_count = 0
+        self.info = CycleInfo()
+
+    # ------------------------------------------------------------------------------------
+    def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
+        if measurement is not None:
+            com = np.asarray(measurement.com_pos_m, float)[:2]
+            vel = np.asarray(measurement.com_vel_mps, float)[:2]
+            if not (np.all(np.isfinite(com)) and np.all(np.isfinite(vel))):
+                raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
+            g = self.state_feedback_gain
+            self.state[0] = (1.0 - g) * self.state[0] + g * com
+            self.state[1] = (1.0 - g) * self.state[1] + g * vel
+        dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
+        return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
+
+    def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
+        """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""
+        try:
+            result = self.qp.solve(self.plan, state, self._restriction())
+        except (InfeasibleMpc, SolverError) as exc:
+            self.infeasible_count += 1
+            self.fallback_cycles += 1
+            self.info.infeasible = True
+            self._log.warning("infeasible", state.t_s, f"{exc}; playing the previous plan")
+            if self.last_plan is None or self.fallback_cycles > self.mpc_params.max_fallback_cycles:
+                raise ControllerFailure(
+                    f"t={state.t_s:.3f} s: IS-MPC infeasible for {self.fallback_cycles} "
+                    f"consecutive cycles ({exc})"
+                ) from exc
+            shifted = self.last_plan.zmp_vel_mps
+            idx = min(self.fallback_cycles, shifted.shape[0] - 1)
+            return shifted[idx], None
+        self.fallback_cycles = 0
+        self.info.infeasible = False
+        self.info.build_time_s = result.build_time_s
+        self.info.solve_time_s = result.solve_time_s
+        self.info.free_footsteps = len(result.footstep_indices)
+        self.last_plan = result
+        if len(result.footstep_indices):
+            self.plan.pos_m[result.footstep_indices] = result.footsteps_m
+        return result.zmp_vel_mps[0], result
+
+    def extra_channels(self) -> dict:
+        """Trace channels produced by the robustness modules in the last cycle."""
+        return {}
+
+    def _restriction(self) -> np.ndarray | None:
+        """ZMP restriction profile (None for nominal IS-MPC)."""
+        return None
+
+    # ------------------------------------------------------------------------------------
+    def step(self, t_s: float, measurement: Measurement | None = None) -> GaitReference:
+        """Run one control cycle at ``t_s`` and return the reference for ``t_s + δ``.
+
+        Parameters
+        ----------
+        t_s : float
+            Current time [s] (a multiple of δ after ``reset``'s time).
+        measurement : Measurement, optional
+            Robot measurement; without it the controller runs open loop on its internal model.
+
+        Raises
+        ------
+        ControllerFailure
+            If the QP stayed infeasible longer than the fallback allows, or the measurement is
+            not finite.
+        """
+        if self.plan is None:
+            raise ParameterError("call reset() before step()")
+        if not math.isfinite(t_s):
+            raise ParameterError(f"t_s must be finite, got {t_s!r}")
+        start = time.perf_counter()
+        self.info.build_time_s = self.info.solve_time_s = 0.0
+        state = self._mpc_state(t_s, measurement)
+        self.info.dcm_m = state.dcm_m
+        self.info.disturbance_mps2 = self.disturbance_mps2.copy()
+        zmp_vel, _ = self._solve(state)
+        self.info.fallback_cycles = self.fallback_cycles
+        self.state = self.lip.A @ self.state + np.outer(self.lip.B, zmp_vel) + np.outer(self.lip.E, self.disturbance_mps2)
+        reference = self._reference(t_s)
+        self.info.cycle_time_s = time.perf_counter() - start
+        return reference
+
+    def _reference(self, t_s: float) -> GaitReference:
+        plan = self.plan
+        t_next = t_s + self.dt
+        j = plan.step_at(t_s)
+        touchdown = plan.touchdown_s[j]
+        swinging = j >= 2 and t_s < touchdown - 1e-9
+        if swinging:
+            swing_side = int(plan.side[j])
+            if self.feet[swing_side].progress >= 1.0:  # the foot landed last step: lift off anew
+                self.feet[swing_side].progress = 0.0
+            self.feet[swing_side] = advance_swing(
+                self.feet[swing_side], plan.pos_m[j], plan.yaw_rad[j], touchdown - t_s, self.dt,
+                self.robot.swing_height_m,
+            )
+            support = Support.RIGHT if swing_side == LEFT else Support.LEFT
+        else:
+            support = Support.DOUBLE
+        feet = {}
+        for side, foot in self.feet.items():
+            in_contact = not (swinging and side == plan.side[j] and t_next < touchdown - 1e-9)
+            feet[side] = FootReference(
+                pos_m=foot.pos_m.copy(), yaw_rad=foot.yaw_rad, vel_mps=foot.vel_mps.copy(),
+                yaw_rate_radps=foot.yaw_rate_radps, in_contact=in_contact,
+            )
+        x_c, v_c, x_z = self.state
+        acc = self.eta**2 * (x_c - x_z) + self.disturbance_mps2
+        h = self.robot.com_height_m
+        return GaitReference(
+            t_s=t_next,
+            com_pos_m=np.array([x_c[0], x_c[1], h]),
+            com_vel_mps=np.array([v_c[0], v_c[1], 0.0]),
+            com_acc_mps2=np.array([acc[0], acc[1], 0.0]),
+            zmp_m=x_z.copy(),
+            left_foot=feet[LEFT],
+            right_foot=feet[-LEFT],
+            torso_yaw_rad=0.5 * (feet[LEFT].yaw_rad + feet[-LEFT].yaw_rad),
+            support=support,
+            step_index=int(j),
+            time_to_step_s=max(0.0, float(touchdown - t_next)) if swinging else 0.0,
+        )

@@ -1,0 +1,49 @@
+"""The one place that knows the order of the IS-MPC decision vector.
+
+Per axis the decision vector is ``(Ẋ_z (C), X_f (F))``: the ZMP velocities over the control
+horizon, then the free footstep coordinates. When the footstep orientations couple the axes
+the two per-axis vectors are stacked, x first: ``(Ẋ_z, X_f, Ẏ_z, Y_f)`` (spec §7.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class QpLayout:
+    """Index ranges of the decision vector.
+
+    Attributes
+    ----------
+    C : int
+        Control-horizon samples (ZMP velocity variables per axis).
+    F : int
+        Free footsteps in the control horizon (footstep variables per axis).
+    coupled : bool
+        True if both axes share one QP.
+    """
+
+    C: int
+    F: int
+    coupled: bool
+
+    @property
+    def n_axis(self) -> int:
+        """Variables of one axis."""
+        return self.C + self.F
+
+    @property
+    def n(self) -> int:
+        """Variables of the QP."""
+        return 2 * self.n_axis if self.coupled else self.n_axis
+
+    def zmp_vel(self, axis: int = 0) -> slice:
+        """Slice of the ZMP velocities of ``axis`` (0 = x, 1 = y) in this QP's vector."""
+        base = axis * self.n_axis if self.coupled else 0
+        return slice(base, base + self.C)
+
+    def footsteps(self, axis: int = 0) -> slice:
+        """Slice of the free footstep coordinates of ``axis`` in this QP's vector."""
+        base = axis * self.n_axis if self.coupled else 0
+        return slice(base + self.C, base + self.C + self.F)

@@ -1,0 +1,136 @@
+"""Reduced-model closed loop: a LIP "robot" driven by the controller, with external forces.
+
+The simulated robot is a LIP per axis whose ZMP follows the controller's reference ZMP (perfect
+ZMP tracking) and whose CoM feels the external forces as an acceleration w = F / m. The exact
+discretisation makes the simulation step exact for forces that are constant over a tick.
+A run fails when the controller cannot produce a reference (QP infeasible beyond the fallback)
+or when the CoM diverges from the ZMP by more than the CoM height.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .controller import IsmpcController
+from .exceptions import ControllerFailure, ParameterError
+from .forces import ForceWindow, total_force
+from .lip import discretise
+from .reference import Measurement, Support
+from .trace import Trace, TraceRecorder
+
+_SUPPORT_CODE = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """How a closed-loop run ended.
+
+    Attributes
+    ----------
+    fell : bool
+        True if the run failed (fall, divergence or persistent infeasibility).
+    failure : str or None
+        Reason, e.g. ``"qp_infeasible: ..."`` or ``"com_diverged"``.
+    duration_s : float
+        Simulated time actually run [s].
+    """
+
+    fell: bool
+    failure: str | None
+    duration_s: float
+
+
+def zmp_box_violation(zmp_m: np.ndarray, centre_m: np.ndarray, yaw_rad: float, half_box_m: np.ndarray) -> float:
+    """Distance [m] by which ``zmp_m`` lies outside the box (0 inside)."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    d = zmp_m - centre_m
+    local = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+    excess = np.maximum(np.abs(local) - half_box_m, 0.0)
+    return float(np.hypot(excess[0], excess[1]))
+
+
+def run_lip(
+    controller: IsmpcController,
+    duration_s: float,
+    forces: Sequence[ForceWindow] = (),
+    recorder: TraceRecorder | None = None,
+    divergence_m: float | None = None,
+    progress=None,
+) -> tuple[RunOutcome, TraceRecorder]:
+    """Close the loop between ``controller`` (already ``reset``) and a LIP.
+
+    Parameters
+    ----------
+    controller : IsmpcController
+        Controller after ``reset``; its internal CoM state is the initial true state.
+    duration_s : float
+        Simulated time [s].
+    forces : sequence of ForceWindow
+        External forces on the CoM [N].
+    recorder : TraceRecorder, optional
+        Where ticks are recorded (a new one by default).
+    divergence_m : float, optional
+        |CoM - ZMP| beyond which the run is declared diverged (default: the CoM height).
+    progress : callable, optional
+        Called as ``progress(t_s)`` every simulated second.
+    """
+    if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s) and duration_s > 0):
+        raise ParameterError(f"duration_s must be a finite number > 0, got {duration_s!r}")
+    robot = controller.robot
+    dt = controller.dt
+    disc = discretise(robot.eta, dt)
+    limit = robot.com_height_m if divergence_m is None else divergence_m
+    half_box = 0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m])
+    true_state = controller.state.copy()  # rows x_c, ẋ_c, x_z; columns x, y
+    recorder = recorder if recorder is not None else TraceRecorder(int(duration_s / dt) + 2)
+    plan = controller.plan
+    n_ticks = int(round(duration_s / dt))
+    failure = None
+    t = 0.0
+    for k in range(n_ticks):
+        t = k * dt
+        w = total_force(forces, t) / robot.mass_kg
+        meas = Measurement(
+            com_pos_m=np.array([*true_state[0], robot.com_height_m]),
+            com_vel_mps=np.array([*true_state[1], 0.0]),
+            zmp_m=true_state[2].copy(),
+        )
+        centre = plan.centre(np.array([t]))[0]
+        yaw = float(plan.centre_yaw(np.array([t]))[0])
+        violation = zmp_box_violation(true_state[2], centre, yaw, half_box)
+        try:
+            ref = controller.step(t, meas)
+        except ControllerFailure as exc:
+            failure = f"qp_infeasible: {exc}"
+            break
+        info = controller.info
+        recorder.record(
+            t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
+            zmp_ref_m=ref.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_yaw_rad=yaw,
+            zmp_violation_m=violation, left_foot_m=ref.left_foot.pos_m, right_foot_m=ref.right_foot.pos_m,
+            support=_SUPPORT_CODE[ref.support], step_index=ref.step_index, time_to_step_s=ref.time_to_step_s,
+            disturbance_true_mps2=w, disturbance_est_mps2=info.disturbance_mps2,
+            infeasible=float(info.infeasible), build_ms=1e3 * info.build_time_s,
+            solve_ms=1e3 * info.solve_time_s, cycle_ms=1e3 * info.cycle_time_s,
+            **controller.extra_channels(),
+        )
+        zmp_vel = (ref.zmp_m - true_state[2]) / dt
+        true_state = disc.A @ true_state + np.outer(disc.B, zmp_vel) + np.outer(disc.E, w)
+        if not np.all(np.isfinite(true_state)) or np.max(np.abs(true_state[0] - true_state[2])) > limit:
+            failure = "com_diverged"
+            t += dt
+            break
+        if progress is not None and k % int(round(1.0 / dt)) == 0:
+            progress(t)
+    else:
+        t = n_ticks * dt
+    return RunOutcome(fell=failure is not None, failure=failure, duration_s=t), recorder
+
+
+def finish_trace(controller: IsmpcController, recorder: TraceRecorder, meta: dict) -> Trace:
+    """Freeze a recorder with the controller's final plan."""
+    return recorder.finish(controller.plan, meta)

@@ -1,0 +1,104 @@
+"""Typed data exchanged between the controller and whatever executes it.
+
+The controller never touches simulator data: a simulator (LIP or MuJoCo) turns its state into a
+:class:`Measurement`, and turns the :class:`GaitReference` it receives into actuator commands.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class Support(enum.Enum):
+    """Which foot carries the robot."""
+
+    DOUBLE = "double"
+    LEFT = "left"
+    RIGHT = "right"
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """What the robot measures at one control tick (world frame, z up).
+
+    Attributes
+    ----------
+    com_pos_m : ndarray, shape (3,)
+        Centre-of-mass position [m].
+    com_vel_mps : ndarray, shape (3,)
+        Centre-of-mass velocity [m/s].
+    zmp_m : ndarray, shape (2,) or None
+        Measured ZMP, i.e. the centre of pressure of the contact forces [m]. ``None`` when no
+        foot is in contact or no force sensing is available; the observer then skips its ZMP
+        correction.
+    """
+
+    com_pos_m: np.ndarray
+    com_vel_mps: np.ndarray
+    zmp_m: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class FootReference:
+    """Desired pose and velocity of one foot (sole frame origin, world frame).
+
+    Attributes
+    ----------
+    pos_m : ndarray, shape (3,)
+        Sole position [m].
+    yaw_rad : float
+        Sole yaw about the world z axis [rad].
+    vel_mps : ndarray, shape (3,)
+        Sole linear velocity [m/s].
+    yaw_rate_radps : float
+        Sole yaw rate [rad/s].
+    in_contact : bool
+        True when the foot is planned to be on the ground.
+    """
+
+    pos_m: np.ndarray
+    yaw_rad: float
+    vel_mps: np.ndarray
+    yaw_rate_radps: float
+    in_contact: bool
+
+
+@dataclass(frozen=True)
+class GaitReference:
+    """Output of one controller cycle: what the whole-body layer must realise.
+
+    Attributes
+    ----------
+    t_s : float
+        Time the reference refers to [s] (the end of the cycle that produced it).
+    com_pos_m, com_vel_mps, com_acc_mps2 : ndarray, shape (3,)
+        Desired CoM position [m], velocity [m/s] and acceleration [m/s^2]; z is the constant
+        CoM height.
+    zmp_m : ndarray, shape (2,)
+        Desired ZMP [m].
+    left_foot, right_foot : FootReference
+        Desired feet.
+    torso_yaw_rad : float
+        Desired torso (and pelvis) yaw: the mean of the feet yaws [rad].
+    support : Support
+        Current support phase.
+    step_index : int
+        Index in the footstep plan of the step under way.
+    time_to_step_s : float
+        Remaining single-support time of the current step [s] (0 in double support).
+    """
+
+    t_s: float
+    com_pos_m: np.ndarray
+    com_vel_mps: np.ndarray
+    com_acc_mps2: np.ndarray
+    zmp_m: np.ndarray
+    left_foot: FootReference
+    right_foot: FootReference
+    torso_yaw_rad: float
+    support: Support
+    step_index: int
+    time_to_step_s: float

