@@ -412,20 +412,3 @@ def standing_state(spec: RobotSpec, model: mujoco.MjModel, data: mujoco.MjData) 
             data.ctrl[a] = data.qpos[model.jnt_qposadr[model.actuator_trnid[a, 0]]]
     mujoco.mj_forward(model, data)
 
-
-def initial_references(spec: RobotSpec, model: mujoco.MjModel | None = None) -> tuple[np.ndarray, SolePose, SolePose]:
-    """CoM position and sole poses of the robot standing at the origin.
-
-    Returns
-    -------
-    com_pos_m : ndarray, shape (3,)
-        CoM [m] (z is the standing CoM height).
-    left_sole, right_sole : SolePose
-        Sole poses (z = 0).
-    """
-    model = spec.load_model() if model is None else model
-    data = mujoco.MjData(model)
-    standing_state(spec, model, data)
-    robot = MujocoRobot(spec, model, data)
-    com, _ = robot.com()
-    return com, robot.sole_pose("left"), robot.sole_pose("right")

@@ -1,0 +1,177 @@
+"""Timing benchmarks of the MPC cycle.
+
+For each control horizon C the controller walks on the LIP (closed loop, 0.2 m/s) and every
+cycle's QP build, solve and whole-step times are recorded. A sample of the QPs solved in that
+run is then solved again by each requested solver (DAQP directly, cold start, and qpsolvers
+backends) to compare solvers on identical problems.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import platform
+import time
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from .controller import IsmpcController
+from .io import atomic_write_bytes, atomic_write_json
+from .lip_sim import run_lip
+from .params import MpcParams, robot_params
+from .planner import WalkCommand, plan_footsteps
+from .qp import DaqpSolver, QpsolversSolver
+from .report import timing_stats
+
+
+class _RecordingSolver(DaqpSolver):
+    """DAQP solver that keeps every ``keep_every``-th problem for re-solving by other solvers."""
+
+    def __init__(self, keep_every: int = 10):
+        super().__init__()
+        self.keep_every = keep_every
+        self.kept: list = []
+        self._count = 0
+
+    def solve(self, problem):
+        self._count += 1
+        if self._count % self.keep_every == 0:
+            self.kept.append(problem)
+        return super().solve(problem)
+
+
+def versions() -> dict:
+    """Versions of Python and the packages that matter for timing."""
+    out = {"python": platform.python_version()}
+    for pkg in ("numpy", "scipy", "daqp", "qpsolvers", "osqp", "proxsuite", "quadprog", "mujoco", "mink"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def machine() -> dict:
+    import os
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as handle:
+            for line in handle:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "platform": platform.platform()}
+
+
+def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> dict:
+    """Time ``cycles`` closed-loop cycles at horizon ``C`` and compare solvers."""
+    robot = robot_params(robot_name)
+    dt = 0.01
+    mpc = MpcParams(sampling_period_s=dt, control_horizon_s=C * dt, preview_horizon_s=C * dt + 1.5)
+    recorder_solver = _RecordingSolver(keep_every=max(1, cycles // 100))
+    controller = IsmpcController(robot, mpc, solver=recorder_solver)
+    duration = (cycles + 100) * dt
+    left = np.array([0.0, 0.5 * robot.foot_spacing_m])
+    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), duration + mpc.preview_horizon_s + 1.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    outcome, rec = run_lip(controller, duration)
+    trace = rec.finish(plan, {})
+    skip = 100  # warm-up cycles
+    result = {
+        "C": C,
+        "cycles": len(trace) - skip,
+        "fell": outcome.fell,
+        "build_ms": timing_stats(trace["build_ms"][skip:]),
+        "solve_ms": timing_stats(trace["solve_ms"][skip:]),
+        "cycle_ms": timing_stats(trace["cycle_ms"][skip:]),
+        "qp_size": None,
+        "solvers": {},
+    }
+    problems = recorder_solver.kept
+    if problems:
+        p0 = problems[0]
+        result["qp_size"] = {"variables": int(p0.n), "rows": int(p0.A.shape[0])}
+    for name in solvers:
+        try:
+            solver = DaqpSolver() if name == "daqp" else QpsolversSolver(backend=name)
+        except Exception as exc:  # not installed
+            result["solvers"][name] = {"error": str(exc)}
+            continue
+        times = []
+        errors = []
+        for problem in problems:
+            if name == "daqp":
+                solver.reset()  # cold start, like the other solvers
+            start = time.perf_counter()
+            try:
+                sol = solver.solve(problem)
+            except Exception as exc:
+                errors.append(str(exc))
+                continue
+            times.append(1e3 * (time.perf_counter() - start))
+            if sol.x is None:
+                errors.append("no solution")
+        result["solvers"][name] = {"solve_ms": timing_stats(np.array(times)), "failures": len(errors),
+                                   "problems": len(problems)}
+    base = result["solvers"].get("daqp", {}).get("solve_ms", {}).get("median")
+    for name, entry in result["solvers"].items():
+        med = entry.get("solve_ms", {}).get("median") if isinstance(entry, dict) else None
+        if base and med:
+            entry["ratio_to_daqp"] = round(med / base, 2)
+    return result
+
+
+def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str]) -> dict:
+    """Benchmark every horizon; returns a JSON-serialisable dict."""
+    return {
+        "robot": robot_name,
+        "machine": machine(),
+        "versions": versions(),
+        "horizons": [bench_horizon(robot_name, C, cycles, solvers) for C in horizons],
+    }
+
+
+def format_table(result: dict) -> str:
+    """Terminal/Markdown table of a benchmark result."""
+    lines = [
+        f"MPC cycle times, robot {result['robot']}, {result['machine']['cpu']} ({result['machine']['cores']} cores)",
+        "",
+        "| C | QP (vars x rows) | build median/p99 ms | solve median/p99 ms | cycle median/p99 ms | solvers (cold, median ms; ratio to DAQP) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for h in result["horizons"]:
+        size = h["qp_size"]
+        size_s = f"{size['variables']} x {size['rows']}" if size else "-"
+        solv = []
+        for name, entry in h["solvers"].items():
+            if "error" in entry:
+                solv.append(f"{name}: n/a")
+            else:
+                solv.append(f"{name}: {entry['solve_ms']['median']} ({entry.get('ratio_to_daqp', '-')}x)")
+        lines.append(
+            f"| {h['C']} | {size_s} | {h['build_ms']['median']}/{h['build_ms']['p99']} | "
+            f"{h['solve_ms']['median']}/{h['solve_ms']['p99']} | {h['cycle_ms']['median']}/{h['cycle_ms']['p99']} | "
+            + "; ".join(solv) + " |"
+        )
+    lines.append("")
+    lines.append("Solve times per axis QP pair (x and y solved separately when the footsteps are not rotated).")
+    return "\n".join(lines)
+
+
+def write_bench(result: dict, out: Path) -> list[Path]:
+    """Write ``bench.json`` and ``bench.md`` (with machine and versions) into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(out / "bench.json", result)
+    md = io.StringIO()
+    md.write("# robust-ismpc benchmark\n\n")
+    md.write(format_table(result) + "\n\n")
+    md.write("Machine: " + json.dumps(result["machine"]) + "\n\n")
+    md.write("Versions: " + json.dumps(result["versions"]) + "\n")
+    atomic_write_bytes(out / "bench.md", md.getvalue().encode())
+    return [out / "bench.json", out / "bench.md"]

@@ -1,0 +1,290 @@
+"""``ismpc`` command line: the only module that parses arguments or prints.
+
+Exit status: 0 success (also when the robot fell: the outcome is in ``summary.json``),
+2 bad input (one line on stderr), 1 an unexpected internal error, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+import time
+from pathlib import Path
+
+from .exceptions import IsmpcError, ParameterError
+
+EPILOG_FORCES = """force syntax:
+  --force FX,FY            constant force [N] on the CoM (LIP) / torso (MuJoCo) for the whole run
+  --force FX,FY@T0:T1      force active from T0 to T1 [s] (T1 empty = until the end)
+  --push  FX,FY@T:DUR      push of FX,FY [N] starting at T lasting DUR [s]
+"""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line and exit status 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        sys.exit(2)
+
+
+def _positive_float(name: str):
+    def convert(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"{name} must be a finite number > 0, got {text!r}")
+        return value
+
+    return convert
+
+
+def _finite_float(name: str):
+    def convert(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{name} must be finite, got {text!r}")
+        return value
+
+    return convert
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}")
+    return value
+
+
+def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True) -> None:
+    from .params import ROBOT_DEFAULTS
+
+    p.add_argument("--sim", default="lip", help="simulator: lip (reduced model) or mujoco (full robot); default lip")
+    p.add_argument("--robot", default="g1",
+                   help=f"robot: {', '.join(sorted(ROBOT_DEFAULTS))} (mujoco: g1, op3); default g1")
+    if with_controller:
+        p.add_argument("--controller", default="nominal",
+                       help="nominal (IS-MPC) or robust (observer + restriction + timing); default nominal")
+        p.add_argument("--modules", default=None,
+                       help="comma-separated subset of observer,restriction,timing (overrides --controller)")
+    p.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
+    p.add_argument("--vy", type=_finite_float("vy"), default=0.0, help="lateral velocity command [m/s] (0)")
+    p.add_argument("--omega", type=_finite_float("omega"), default=0.0, help="turning rate command [rad/s] (0)")
+    p.add_argument("--duration", type=_positive_float("duration"), default=10.0, help="simulated time [s] (10)")
+    p.add_argument("--force", action="append", default=[], metavar="FX,FY[@T0:T1]",
+                   help="external force [N], repeatable (see below)")
+    p.add_argument("--push", action="append", default=[], metavar="FX,FY@T:DUR",
+                   help="impulsive push [N] for DUR seconds, repeatable")
+    p.add_argument("--delta-max", type=_finite_float("delta-max"), default=None,
+                   help="deviation bound Δmax for the ZMP restriction [m/s²] (default: module default)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
+    p.add_argument("--out", required=True, help="output directory (summary.json, gait.png, trace.npz)")
+    p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    p.add_argument("--video", action="store_true", help="mujoco only: also write an mp4 (offscreen rendering)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="ismpc",
+        description="Robust IS-MPC gait generation: run humanoid walks on a LIP or in MuJoCo, compare "
+        "nominal and robust controllers, benchmark the MPC.",
+    )
+    parser.add_argument("--verbose", action="store_true", help="log controller warnings")
+    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
+
+    p_run = sub.add_parser(
+        "run", help="one closed-loop walk", epilog=EPILOG_FORCES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Run one closed-loop walk and write OUT/summary.json, OUT/gait.png and OUT/trace.npz.",
+    )
+    _add_run_arguments(p_run)
+
+    p_cmp = sub.add_parser(
+        "compare", help="nominal vs robust on the same disturbances", epilog=EPILOG_FORCES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Run the nominal and the robust controller on identical disturbances and write "
+        "OUT/nominal/, OUT/robust/, OUT/comparison.json and OUT/comparison.png.",
+    )
+    p_cmp.add_argument("scenario", nargs="?", default=None, help="optional named scenario (see `ismpc scenarios`)")
+    _add_run_arguments(p_cmp, with_controller=False)
+    p_cmp.add_argument("--robust-modules", default="observer,restriction,timing",
+                       help="modules of the robust run (default: all three)")
+
+    p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
+                             description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
+    p_bench.add_argument("--robot", default="g1", help="robot parameters (g1)")
+    p_bench.add_argument("--horizons", default="50,100,200", help="control-horizon samples, comma-separated")
+    p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
+    p_bench.add_argument("--solvers", default="daqp,osqp,proxsuite,quadprog",
+                         help="solvers to compare on the same QPs (those installed)")
+    p_bench.add_argument("--out", default=None, help="write bench.json (and bench.md) into this directory")
+    return parser
+
+
+def _prepare_out(path: str, overwrite: bool) -> Path:
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {path!r} exists and is not a directory")
+    if out.exists() and any(out.iterdir()) and not overwrite:
+        raise ParameterError(f"--out {path!r} exists and is not empty; pass --overwrite to write into it")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _forces(args) -> tuple:
+    from .forces import parse_force, parse_push
+
+    return tuple(parse_force(s) for s in args.force) + tuple(parse_push(s) for s in args.push)
+
+
+def _progress(args, label: str):
+    if args.quiet or not sys.stderr.isatty():
+        return None
+    start = time.perf_counter()
+
+    def report(t_s: float) -> None:
+        sys.stderr.write(f"\r{label}: t = {t_s:6.1f} / {args.duration:.1f} s  ({time.perf_counter() - start:5.1f} s wall)")
+        sys.stderr.flush()
+
+    return report
+
+
+def _end_progress(args) -> None:
+    if not args.quiet:
+        sys.stderr.write("\n")
+
+
+def _spec(args, modules: tuple[str, ...]):
+    from .planner import WalkCommand
+    from .runner import RunSpec
+
+    return RunSpec(
+        robot=args.robot, sim=args.sim, modules=modules,
+        command=WalkCommand(args.vx, args.vy, args.omega), duration_s=args.duration,
+        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max,
+    )
+
+
+def _write_run(result, out: Path, title: str | None = None) -> None:
+    from .io import atomic_write_json
+    from .plotting import plot_run
+
+    atomic_write_json(out / "summary.json", result.summary)
+    result.trace.save(out / "trace.npz")
+    plot_run(result.trace, out / "gait.png", title=title)
+
+
+def _one_line(summary: dict) -> str:
+    state = f"FELL ({summary['failure']})" if summary["fell"] else "walked"
+    return (
+        f"{summary['robot']}/{summary['sim']}/{summary['controller']}: {state}; "
+        f"{summary['duration_s']:.2f} s, {summary['distance_m']:.2f} m, {summary['steps_taken']} steps, "
+        f"{summary['qp_infeasible_count']} infeasible QPs, cycle median {summary['cycle_ms']['median']} ms"
+    )
+
+
+def cmd_run(args) -> int:
+    from .runner import parse_modules, run
+
+    modules = parse_modules(args.controller, args.modules)
+    spec = _spec(args, modules)
+    out = _prepare_out(args.out, args.overwrite)
+    result = run(spec, progress=_progress(args, spec.controller_label))
+    _end_progress(args)
+    _write_run(result, out)
+    if args.video and spec.sim == "mujoco":
+        pass  # the video is written by the MuJoCo runner when requested
+    print(_one_line(result.summary))
+    print(f"wrote {out / 'summary.json'}, {out / 'gait.png'}, {out / 'trace.npz'}")
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from .io import atomic_write_json
+    from .plotting import plot_comparison
+    from .runner import parse_modules, run
+
+    if args.scenario is not None:
+        raise ParameterError(f"unknown scenario {args.scenario!r}; no named scenarios are available yet")
+    robust_modules = parse_modules("robust", args.robust_modules)
+    out = _prepare_out(args.out, args.overwrite)
+    results = {}
+    for label, modules in (("nominal", ()), ("robust", robust_modules)):
+        spec = _spec(args, modules)
+        results[label] = run(spec, progress=_progress(args, label))
+        _end_progress(args)
+        (out / label).mkdir(exist_ok=True)
+        _write_run(results[label], out / label)
+        print(_one_line(results[label].summary))
+    comparison = {
+        label: {k: r.summary[k] for k in ("fell", "failure", "distance_m", "steps_taken", "qp_infeasible_count",
+                                          "max_zmp_violation_m", "timing_adaptations", "min_time_to_step_s",
+                                          "disturbance_estimate_final", "modules")}
+        for label, r in results.items()
+    }
+    comparison["robust_survives_nominal_fails"] = (not results["robust"].summary["fell"]) and results["nominal"].summary["fell"]
+    atomic_write_json(out / "comparison.json", comparison)
+    plot_comparison([r.trace for r in results.values()], list(results), out / "comparison.png",
+                    title=f"{args.robot} on {args.sim}: nominal vs robust")
+    print(f"wrote {out / 'comparison.json'}, {out / 'comparison.png'}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import format_table, run_bench, write_bench
+
+    try:
+        horizons = [int(h) for h in args.horizons.split(",")]
+    except ValueError:
+        raise ParameterError(f"--horizons must be comma-separated integers, got {args.horizons!r}") from None
+    if any(h < 2 for h in horizons):
+        raise ParameterError(f"--horizons must be >= 2 samples, got {args.horizons!r}")
+    if args.cycles < 10:
+        raise ParameterError(f"--cycles must be >= 10, got {args.cycles}")
+    solvers = [s.strip() for s in args.solvers.split(",") if s.strip()]
+    result = run_bench(args.robot, horizons, args.cycles, solvers)
+    print(format_table(result))
+    if args.out:
+        paths = write_bench(result, Path(args.out))
+        print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING if args.verbose else logging.ERROR, format="%(levelname)s %(message)s")
+    if args.command is None:
+        parser.print_help()
+        return 2
+    handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench}
+    try:
+        return handlers[args.command](args)
+    except IsmpcError as exc:
+        sys.stderr.write(f"ismpc: error: {exc}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("\nismpc: interrupted; finished outputs were kept\n")
+        return 130
+    except Exception as exc:  # an internal error: one line, details only with --verbose
+        logging.getLogger("robust_ismpc").debug("internal error", exc_info=True)
+        sys.stderr.write(f"ismpc: internal error: {type(exc).__name__}: {exc} (rerun with --verbose for details)\n")
+        if args.verbose:
+            raise
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

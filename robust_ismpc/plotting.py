@@ -1,0 +1,131 @@
+"""Matplotlib figures from traces (the only module importing matplotlib)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .io import atomic_write_bytes
+from .trace import Trace
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path) -> None:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+    atomic_write_bytes(Path(path), buffer.getvalue())
+
+
+def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | None) -> None:
+    from matplotlib.patches import Polygon
+
+    L = trace.meta.get("sole_length_m", 0.2)
+    W = trace.meta.get("sole_width_m", 0.1)
+    corners = np.array([[L, W], [L, -W], [-L, -W], [-L, W]]) / 2
+    steps = trace.footsteps_m
+    done = np.ones(len(steps), dtype=bool)
+    done[0] = False  # virtual midpoint
+    done[2:] = trace.footstep_touchdown_s[2:] <= t_end + 1e-9
+    first = True
+    for pos, yaw, side, ok in zip(steps, trace.footstep_yaw_rad, trace.footstep_side, done):
+        if not ok:
+            continue
+        c, s = np.cos(yaw), np.sin(yaw)
+        pts = pos + corners @ np.array([[c, s], [-s, c]])
+        ax.add_patch(Polygon(pts, closed=True, fill=False, ec=color if side > 0 else "tab:gray", lw=1.0,
+                             label=label if first else None))
+        first = False
+    cand = trace.candidate_footsteps_m[1:][done[1:]]
+    ax.plot(cand[:, 0], cand[:, 1], "+", color="k", ms=5, alpha=0.5, label="candidate footsteps" if label else None)
+
+
+def _draw_run(axes, trace: Trace, title: str) -> None:
+    t = trace["t_s"]
+    t_end = float(t[-1]) if len(t) else 0.0
+    top, ax_x, ax_y, ax_w = axes
+    _footstep_patches(top, trace, t_end, "tab:blue", "footsteps (left blue)")
+    top.plot(trace["zmp_m"][:, 0], trace["zmp_m"][:, 1], color="tab:orange", lw=1, label="ZMP")
+    top.plot(trace["com_m"][:, 0], trace["com_m"][:, 1], color="tab:green", lw=1.5, label="CoM")
+    top.set_aspect("equal", adjustable="datalim")
+    top.set_xlabel("x [m]")
+    top.set_ylabel("y [m]")
+    fell = trace.meta.get("fell")
+    top.set_title(f"{title}" + (" - FELL" if fell else ""))
+    top.legend(loc="best", fontsize=7)
+    half = 0.5 * np.array([trace.meta.get("zmp_box_x_m", np.nan), trace.meta.get("zmp_box_y_m", np.nan)])
+    for axis, ax in ((0, ax_x), (1, ax_y)):
+        name = "xy"[axis]
+        centre = trace["box_centre_m"][:, axis]
+        ax.fill_between(t, centre - half[axis], centre + half[axis], color="tab:orange", alpha=0.2,
+                        label="ZMP bounds (box)")
+        ax.plot(t, trace["zmp_m"][:, axis], color="tab:orange", lw=1, label="ZMP")
+        ax.plot(t, trace["com_m"][:, axis], color="tab:green", lw=1.2, label="CoM")
+        feas = trace["feasibility_m"][:, 2 * axis : 2 * axis + 2]
+        if np.isfinite(feas).any():
+            ax.plot(t, trace["dcm_m"][:, axis], color="tab:purple", lw=0.8, label="DCM (shifted)")
+            ax.plot(t, feas[:, 0], "--", color="tab:red", lw=0.7, label="feasibility region")
+            ax.plot(t, feas[:, 1], "--", color="tab:red", lw=0.7)
+        adapted = np.nan_to_num(trace["timing_adapted"]) > 0
+        if adapted.any():
+            ax.plot(t[adapted], trace["com_m"][adapted, axis], "v", color="tab:red", ms=4,
+                    label="step timing adapted")
+        ax.set_ylabel(f"{name} [m]")
+        ax.legend(loc="best", fontsize=7)
+    ax_y.set_xlabel("t [s]")
+    w_true = trace["disturbance_true_mps2"]
+    w_est = trace["disturbance_est_mps2"]
+    for axis, color in ((0, "tab:blue"), (1, "tab:red")):
+        ax_w.plot(t, w_true[:, axis], color=color, lw=0.8, alpha=0.6, label=f"w_{'xy'[axis]} applied")
+        ax_w.plot(t, w_est[:, axis], "--", color=color, lw=1.2, label=f"w_{'xy'[axis]} estimate")
+    ax_w.set_ylabel("disturbance [m/s²]")
+    ax_w.set_xlabel("t [s]")
+    ax_w.legend(loc="best", fontsize=7)
+
+
+def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
+    """Write the gait figure of one run: top view; x, y over time with ZMP bounds, DCM and
+    feasibility region; applied and estimated disturbance."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(11, 10))
+    grid = fig.add_gridspec(4, 1, height_ratios=[1.4, 1, 1, 0.8])
+    axes = [fig.add_subplot(grid[0])]
+    axes.append(fig.add_subplot(grid[1]))
+    axes.append(fig.add_subplot(grid[2], sharex=axes[1]))
+    axes.append(fig.add_subplot(grid[3], sharex=axes[1]))
+    meta = trace.meta
+    _draw_run(axes, trace, title or f"{meta.get('robot')} / {meta.get('sim')} / {meta.get('controller')}")
+    fig.tight_layout()
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | Path, title: str = "") -> Path:
+    """Side-by-side gait figures of several runs on the same disturbances (one column each)."""
+    plt = _pyplot()
+    n = len(traces)
+    fig = plt.figure(figsize=(7 * n, 11))
+    grid = fig.add_gridspec(4, n, height_ratios=[1.4, 1, 1, 0.8])
+    for col, (trace, label) in enumerate(zip(traces, labels)):
+        axes = [fig.add_subplot(grid[0, col])]
+        axes.append(fig.add_subplot(grid[1, col]))
+        axes.append(fig.add_subplot(grid[2, col], sharex=axes[1]))
+        axes.append(fig.add_subplot(grid[3, col], sharex=axes[1]))
+        _draw_run(axes, trace, label)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)

@@ -1,0 +1,169 @@
+"""One closed-loop run described as data: build the plan and controller, simulate, summarise.
+
+This is the Python API behind ``ismpc run``; it returns results and writes nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .controller import IsmpcController
+from .exceptions import ParameterError
+from .forces import ForceWindow
+from .lip_sim import run_lip
+from .params import MpcParams, RobotParams, robot_params
+from .planner import WalkCommand, plan_footsteps
+from .report import summarize
+from .trace import Trace
+
+MODULES = ("observer", "restriction", "timing")
+SIMS = ("lip", "mujoco")
+
+
+def parse_modules(controller: str, modules: str | None = None) -> tuple[str, ...]:
+    """Module list from ``--controller nominal|robust`` and an optional ``--modules a,b``."""
+    if modules is not None:
+        names = tuple(m.strip() for m in modules.split(",") if m.strip())
+        unknown = [m for m in names if m not in MODULES]
+        if unknown:
+            raise ParameterError(
+                f"unknown module {unknown[0]!r}; modules are: {', '.join(MODULES)}"
+            )
+        return tuple(m for m in MODULES if m in names)
+    if controller == "nominal":
+        return ()
+    if controller == "robust":
+        return MODULES
+    raise ParameterError(f"unknown controller {controller!r}; use nominal or robust (or --modules)")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """A closed-loop run.
+
+    Attributes
+    ----------
+    robot : str
+        Built-in robot name.
+    sim : str
+        ``lip`` or ``mujoco``.
+    modules : tuple of str
+        Robustness modules switched on (subset of observer, restriction, timing).
+    command : WalkCommand
+        Velocity command.
+    duration_s : float
+        Simulated time [s].
+    forces : tuple of ForceWindow
+        External forces [N] (constant, windowed and pushes alike).
+    seed : int
+        Seed of every random choice in the run.
+    delta_max_mps2 : float or None
+        Deviation bound Δmax for the restriction [m/s²] (None: module default).
+    mpc : MpcParams
+        MPC settings.
+    """
+
+    robot: str = "g1"
+    sim: str = "lip"
+    modules: tuple[str, ...] = ()
+    command: WalkCommand = field(default_factory=lambda: WalkCommand(0.2, 0.0, 0.0))
+    duration_s: float = 10.0
+    forces: tuple[ForceWindow, ...] = ()
+    seed: int = 0
+    delta_max_mps2: float | None = None
+    mpc: MpcParams = field(default_factory=MpcParams)
+
+    def __post_init__(self) -> None:
+        if self.sim not in SIMS:
+            raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
+        robot_params(self.robot)  # validates the name
+        if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
+        for m in self.modules:
+            if m not in MODULES:
+                raise ParameterError(f"unknown module {m!r}; modules are: {', '.join(MODULES)}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
+        if self.delta_max_mps2 is not None and not (
+            math.isfinite(self.delta_max_mps2) and self.delta_max_mps2 >= 0
+        ):
+            raise ParameterError(f"delta max must be a finite number >= 0 m/s², got {self.delta_max_mps2!r}")
+
+    @property
+    def controller_label(self) -> str:
+        if not self.modules:
+            return "nominal"
+        if set(self.modules) == set(MODULES):
+            return "robust"
+        return "+".join(self.modules)
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Summary (the ``summary.json`` content) and trace of a run."""
+
+    summary: dict
+    trace: Trace
+
+
+def make_controller(robot: RobotParams, spec: RunSpec, state_feedback_gain: float = 1.0) -> IsmpcController:
+    """The controller for ``spec``: nominal IS-MPC plus the requested modules."""
+    if not spec.modules:
+        return IsmpcController(robot, spec.mpc, state_feedback_gain=state_feedback_gain)
+    from .robust import RobustIsmpcController
+
+    return RobustIsmpcController(
+        robot, spec.mpc, modules=spec.modules, delta_max_mps2=spec.delta_max_mps2,
+        state_feedback_gain=state_feedback_gain,
+    )
+
+
+def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
+    """Metadata stored with a trace."""
+    return {
+        "robot": spec.robot,
+        "sim": spec.sim,
+        "controller": spec.controller_label,
+        "modules": list(spec.modules),
+        "seed": spec.seed,
+        "command": {"vx_mps": spec.command.vx_mps, "vy_mps": spec.command.vy_mps,
+                    "omega_radps": spec.command.omega_radps},
+        "forces": [
+            {"fx_n": f.fx_n, "fy_n": f.fy_n, "t_start_s": f.t_start_s,
+             "t_end_s": None if math.isinf(f.t_end_s) else f.t_end_s}
+            for f in spec.forces
+        ],
+        "delta_max_mps2": spec.delta_max_mps2,
+        "zmp_box_x_m": robot.zmp_box_x_m,
+        "zmp_box_y_m": robot.zmp_box_y_m,
+        "sole_length_m": robot.sole_length_m,
+        "sole_width_m": robot.sole_width_m,
+        "mass_kg": robot.mass_kg,
+        "com_height_m": robot.com_height_m,
+    }
+
+
+def run(spec: RunSpec, progress=None) -> RunResult:
+    """Run ``spec`` and return its summary and trace."""
+    if spec.sim == "mujoco":
+        from .sim.run import run_mujoco_spec
+
+        return run_mujoco_spec(spec, progress=progress)
+    robot = robot_params(spec.robot)
+    controller = make_controller(robot, spec)
+    left = np.array([0.0, 0.5 * robot.foot_spacing_m])
+    plan = plan_footsteps(robot, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    start = time.perf_counter()
+    outcome, recorder = run_lip(controller, spec.duration_s, spec.forces, progress=progress)
+    wall = time.perf_counter() - start
+    meta = run_meta(spec, robot)
+    meta["fell"] = outcome.fell
+    meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
+    trace = recorder.finish(controller.plan, meta)
+    summary = summarize(trace, outcome.fell, outcome.failure, outcome.duration_s, wall)
+    return RunResult(summary=summary, trace=trace)

@@ -1,0 +1,54 @@
+"""MuJoCo layer: measurements, disturbances, closed loop, fall detection and video.
+
+This subpackage (with :mod:`robust_ismpc.wbik` and :mod:`robust_ismpc.robots`) is the only
+place that imports mujoco.
+"""
+
+from .disturbances import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
+from .mujoco_loop import (
+    LoopSettings,
+    MujocoSimulation,
+    MujocoTrace,
+    PhaseTimes,
+    initial_state,
+    run_mujoco,
+    run_simulation,
+)
+from .mujoco_robot import (
+    ContactState,
+    FallCriteria,
+    MujocoRobot,
+    SolePose,
+    convex_hull,
+    distance_outside,
+    sole_corners,
+    standing_state,
+)
+from .video import VideoRecorder, VideoSettings, configure_offscreen_gl
+
+__all__ = [
+    "ContactState",
+    "FallCriteria",
+    "Force",
+    "ForceSchedule",
+    "Impulse",
+    "LoopSettings",
+    "MujocoRobot",
+    "MujocoSimulation",
+    "MujocoTrace",
+    "Payload",
+    "PhaseTimes",
+    "SolePose",
+    "SwingingBall",
+    "VideoRecorder",
+    "VideoSettings",
+    "build_scene",
+    "configure_offscreen_gl",
+    "convex_hull",
+    "distance_outside",
+    "initial_state",
+    "run_mujoco",
+    "run_simulation",
+    "sole_corners",
+    "standing_state",
+]

@@ -1,0 +1,171 @@
+"""Offscreen video of a MuJoCo run: frames from ``mujoco.Renderer``, mp4 through imageio.
+
+Offscreen rendering needs an OpenGL backend chosen with the ``MUJOCO_GL`` environment variable
+*before* mujoco creates a context. On a headless Linux machine ``MUJOCO_GL=egl`` works with the
+Debian packages ``libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0`` (Mesa's software
+rasteriser); :func:`configure_offscreen_gl` sets ``egl`` when nothing is set and no display is
+available. The mp4 encoder is the ffmpeg binary shipped in the ``imageio-ffmpeg`` wheel.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from ..exceptions import ParameterError
+
+logger = logging.getLogger("robust_ismpc")
+
+
+def configure_offscreen_gl(backend: str | None = None) -> str:
+    """Choose the OpenGL backend for offscreen rendering (sets ``MUJOCO_GL``).
+
+    Parameters
+    ----------
+    backend : str, optional
+        ``"egl"``, ``"osmesa"`` or ``"glfw"``; default: keep ``MUJOCO_GL`` if set, else ``"egl"``
+        when there is no ``DISPLAY``, else ``"glfw"``.
+
+    Returns
+    -------
+    str
+        The backend in effect. It must be chosen before the first renderer is created.
+    """
+    if backend is not None:
+        if backend not in ("egl", "osmesa", "glfw"):
+            raise ParameterError(f"backend must be egl, osmesa or glfw, got {backend!r}")
+        os.environ["MUJOCO_GL"] = backend
+    elif "MUJOCO_GL" not in os.environ:
+        os.environ["MUJOCO_GL"] = "glfw" if os.environ.get("DISPLAY") else "egl"
+    return os.environ["MUJOCO_GL"]
+
+
+@dataclass(frozen=True)
+class VideoSettings:
+    """What and how to record.
+
+    Attributes
+    ----------
+    path : Path
+        Output ``.mp4`` file.
+    fps : int
+        Frames per second of the video (simulated time) [1/s].
+    width, height : int
+        Frame size [pixel] (at most the model's offscreen buffer, 640 x 480 by default).
+    distance_m, azimuth_deg, elevation_deg : float
+        Tracking camera placement relative to the tracked body.
+    track_body : str or None
+        Body followed by the camera; None means the robot's root body.
+    """
+
+    path: Path
+    fps: int = 30
+    width: int = 640
+    height: int = 480
+    distance_m: float = 2.5
+    azimuth_deg: float = 135.0
+    elevation_deg: float = -15.0
+    track_body: str | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "path", Path(self.path))
+        if self.path.suffix.lower() != ".mp4":
+            raise ParameterError(f"VideoSettings.path must end with .mp4, got {str(self.path)!r}")
+        for name in ("fps", "width", "height"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value <= 0:
+                raise ParameterError(f"VideoSettings.{name} must be a positive integer, got {value!r}")
+        if not self.distance_m > 0:
+            raise ParameterError(f"VideoSettings.distance_m must be > 0, got {self.distance_m!r}")
+
+
+class VideoRecorder:
+    """Render frames of a scene with a tracking camera and write them to an mp4 file.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        Scene model.
+    settings : VideoSettings
+    default_track_body : str
+        Body tracked when ``settings.track_body`` is None.
+
+    Notes
+    -----
+    Use as a context manager or call :meth:`close`. ``render_time_s`` accumulates the rendering
+    wall time; :attr:`frames_per_second` is the rendering throughput.
+    """
+
+    def __init__(self, model: mujoco.MjModel, settings: VideoSettings, default_track_body: str) -> None:
+        import imageio.v2 as imageio  # only needed when recording
+
+        configure_offscreen_gl()
+        self.settings = settings
+        width = min(settings.width, int(model.vis.global_.offwidth))
+        height = min(settings.height, int(model.vis.global_.offheight))
+        if (width, height) != (settings.width, settings.height):
+            logger.warning("video frame size reduced to %dx%d (model offscreen buffer)", width, height)
+        self._renderer = mujoco.Renderer(model, height=height, width=width)
+        name = settings.track_body or default_track_body
+        body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+        if body_id < 0:
+            raise ParameterError(f"video track body {name!r} not found in the model")
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+        cam.trackbodyid = body_id
+        cam.distance = settings.distance_m
+        cam.azimuth = settings.azimuth_deg
+        cam.elevation = settings.elevation_deg
+        self._camera = cam
+        settings.path.parent.mkdir(parents=True, exist_ok=True)
+        self._writer = imageio.get_writer(
+            str(settings.path), fps=settings.fps, codec="libx264", quality=7, macro_block_size=8
+        )
+        self.frame_count = 0
+        self.render_time_s = 0.0
+        self._next_frame_t_s = 0.0
+
+    def due(self, t_s: float) -> bool:
+        """True when a frame is due at simulated time ``t_s`` [s]."""
+        return t_s + 1e-9 >= self._next_frame_t_s
+
+    def capture(self, data: mujoco.MjData) -> np.ndarray:
+        """Render the current state and append it to the video; returns the frame (H, W, 3) uint8."""
+        start = time.perf_counter()
+        self._renderer.update_scene(data, camera=self._camera)
+        frame = self._renderer.render()
+        self._writer.append_data(frame)
+        self.render_time_s += time.perf_counter() - start
+        self.frame_count += 1
+        self._next_frame_t_s += 1.0 / self.settings.fps
+        return frame
+
+    def capture_if_due(self, data: mujoco.MjData) -> None:
+        """Capture a frame if one is due at ``data.time``."""
+        if self.due(data.time):
+            self.capture(data)
+
+    @property
+    def frames_per_second(self) -> float:
+        """Rendering throughput (frames per wall-clock second, encoding included)."""
+        return self.frame_count / self.render_time_s if self.render_time_s > 0 else 0.0
+
+    def close(self) -> None:
+        """Finish the mp4 file and free the renderer."""
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+            self._renderer.close()
+            logger.info("wrote %d frames to %s", self.frame_count, self.settings.path)
+
+    def __enter__(self) -> VideoRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,88 @@
+"""Shared fixtures and helpers of the MuJoCo-layer tests (import from here)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robust_ismpc.reference import FootReference, GaitReference, Measurement, Support
+from robust_ismpc.sim.mujoco_robot import SolePose
+
+mujoco = pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+from robust_ismpc.robots import RobotSpec, load_robot  # noqa: E402
+from robust_ismpc.sim.mujoco_loop import initial_state  # noqa: E402
+
+ROBOT_NAMES = ("g1", "op3")
+
+
+def double_support_reference(
+    t_s: float, com_pos_m: np.ndarray, left: SolePose, right: SolePose
+) -> GaitReference:
+    """A still double-support reference: CoM at ``com_pos_m``, ZMP below it, feet where given."""
+    def foot(pose: SolePose) -> FootReference:
+        return FootReference(pos_m=pose.pos_m.copy(), yaw_rad=pose.yaw_rad, vel_mps=np.zeros(3),
+                             yaw_rate_radps=0.0, in_contact=True)
+
+    return GaitReference(
+        t_s=t_s,
+        com_pos_m=np.asarray(com_pos_m, dtype=float).copy(),
+        com_vel_mps=np.zeros(3),
+        com_acc_mps2=np.zeros(3),
+        zmp_m=np.asarray(com_pos_m[:2], dtype=float).copy(),
+        left_foot=foot(left),
+        right_foot=foot(right),
+        torso_yaw_rad=0.5 * (left.yaw_rad + right.yaw_rad),
+        support=Support.DOUBLE,
+        step_index=0,
+        time_to_step_s=0.0,
+    )
+
+
+class StandingController:
+    """Returns a fixed double-support reference at the standing CoM with the initial feet."""
+
+    def __init__(self, spec: RobotSpec) -> None:
+        self.com_pos_m, self.left, self.right = initial_state(spec)
+        self.calls = 0
+
+    def step(self, t_s: float, measurement: Measurement) -> GaitReference:
+        self.calls += 1
+        return double_support_reference(t_s + 0.01, self.com_pos_m, self.left, self.right)
+
+
+class ComShiftController(StandingController):
+    """Moves the CoM reference by ``shift_m`` (x, y) with a smooth ramp from t_start_s over ramp_s."""
+
+    def __init__(self, spec: RobotSpec, shift_m: tuple[float, float], t_start_s: float = 0.3,
+                 ramp_s: float = 0.7) -> None:
+        super().__init__(spec)
+        self.shift_m = np.array([shift_m[0], shift_m[1], 0.0])
+        self.t_start_s = t_start_s
+        self.ramp_s = ramp_s
+
+    def target(self, t_s: float) -> np.ndarray:
+        s = np.clip((t_s - self.t_start_s) / self.ramp_s, 0.0, 1.0)
+        s = s * s * (3 - 2 * s)
+        return self.com_pos_m + s * self.shift_m
+
+    def step(self, t_s: float, measurement: Measurement) -> GaitReference:
+        self.calls += 1
+        return double_support_reference(t_s + 0.01, self.target(t_s + 0.01), self.left, self.right)
+
+
+@pytest.fixture(scope="session", params=ROBOT_NAMES)
+def robot_spec(request: pytest.FixtureRequest) -> RobotSpec:
+    """Each built-in robot."""
+    return load_robot(request.param)
+
+
+@pytest.fixture(scope="session")
+def g1_spec() -> RobotSpec:
+    return load_robot("g1")
+
+
+@pytest.fixture(scope="session")
+def op3_spec() -> RobotSpec:
+    return load_robot("op3")
