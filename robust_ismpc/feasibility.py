@@ -59,6 +59,7 @@ __all__ = [
     "affine_inner_estimate",
     "build_axis_program",
     "feasibility_bounds_lp",
+    "straight_gait_inputs",
 ]
 
 TAIL_ANCHORS = ("candidate", "decision")
@@ -66,6 +67,9 @@ TAIL_ANCHORS = ("candidate", "decision")
 # within this tolerance of T_c counts as starting at T_c (a candidate). 1 ns is far below any
 # sampling period, so on a δ grid the classification equals "start sample index < C".
 _CLASSIFY_TOL_S = 1e-9
+# Lines returned by the affine estimate are lowered by this much so that float rounding can
+# never put them outside the exact bounds [m].
+_INNER_SAFETY_M = 1e-12
 
 
 def _finite(owner: str, **values: float) -> None:
@@ -193,6 +197,17 @@ class AxisFeasibilityInputs:
         offsets = np.concatenate(([0.0], np.cumsum(periods)))
         offsets.setflags(write=False)
         object.__setattr__(self, "_ramp_offsets_s", offsets)
+        object.__setattr__(self, "_reach_hi", arrays["disp_hi_m"] - arrays["disp_nominal_m"])
+        object.__setattr__(self, "_reach_lo", arrays["disp_lo_m"] - arrays["disp_nominal_m"])
+        eta, T_c, h = self.eta, self.control_horizon_s, self.zmp_half_width_m
+        lam = math.exp(-eta * self.sampling_period_s)
+        w0 = 1.0 - (1.0 - lam) / (eta * self.sampling_period_s)
+        mu_c = math.exp(-eta * T_c)
+        box = h * (1.0 - mu_c) - self.restriction_rate_mps * ((1.0 - mu_c) / eta - T_c * mu_c)
+        # Constant parts of x_u^M and x_u^m: p_0 + w0 (x_z^k - p_0 -/+ h) +/- box.
+        p0, xz = self.support_pos_m, self.zmp_pos_m
+        consts = {"w0": w0, "upper": p0 + w0 * (xz - p0 - h) + box, "lower": p0 + w0 * (xz - p0 + h) - box}
+        object.__setattr__(self, "_consts", consts)
 
     @property
     def num_footsteps(self) -> int:
@@ -219,34 +234,33 @@ def _bounds_core(
     inp: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray, cutoff_s: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form bounds for first-ramp starts a_1 (M,) and decision cut-offs (M,)."""
-    eta, T_ds, T_c, T_p = inp.eta, inp.T_ds_s, inp.control_horizon_s, inp.preview_horizon_s
-    a = first_ramp_start_s[:, None] + inp.ramp_offsets_s[None, :]  # (M, N)
-    rho0 = np.clip(-a / T_ds, 0.0, 1.0)
-    t_lo = np.maximum(a, 0.0)
-    t_hi = np.minimum(a + T_ds, T_p)
-    G = rho0 + np.where(t_hi > t_lo, (np.exp(-eta * t_lo) - np.exp(-eta * t_hi)) / (eta * T_ds), 0.0)
-    decision = (a > 0.0) & (a < cutoff_s[:, None])
+    eta, T_ds = inp.eta, inp.T_ds_s
+    a = first_ramp_start_s[:, None] + inp.ramp_offsets_s  # (M, N)
+    # G_j = rho_j(0) + (e^{-eta max(a,0)} - e^{-eta min(a+T_ds, T_p)})_+ / (eta T_ds)
+    G = np.exp(-eta * np.maximum(a, 0.0))
+    G -= np.exp(-eta * np.minimum(a + T_ds, inp.preview_horizon_s))
+    np.maximum(G, 0.0, out=G)
+    G *= 1.0 / (eta * T_ds)
+    landed = bool(first_ramp_start_s.min() < 0.0)
+    if landed:
+        rho0 = np.clip(a * (-1.0 / T_ds), 0.0, 1.0)
+        G += rho0
+    cut = cutoff_s[:, None]
+    decision = (a > 0.0) & (a < cut)
     nominal = inp.disp_nominal_m
     if inp.tail_anchor == "candidate":
-        # G of the first footstep at or after the cut-off (0 if none): it carries the jump from
-        # the last decision footstep to the first absolute candidate.
-        n_before = np.sum(a < cutoff_s[:, None], axis=1)
-        G_pad = np.concatenate((G, np.zeros((G.shape[0], 1))), axis=1)
-        G_next = np.take_along_axis(G_pad, n_before[:, None], axis=1)
+        # G of the first footstep at or after the cut-off (0 if none; G is non-increasing in j):
+        # it carries the jump from the last decision footstep to the first absolute candidate.
+        G_next = np.max(np.where(a >= cut, G, 0.0), axis=1, keepdims=True)
         gamma = np.where(decision, G - G_next, 0.0)
     else:
         gamma = np.where(decision, G, 0.0)
-    centre = inp.support_pos_m + G @ nominal
-    reach_hi = gamma @ (inp.disp_hi_m - nominal)
-    reach_lo = gamma @ (inp.disp_lo_m - nominal)
-    c0 = inp.support_pos_m + rho0 @ nominal  # decision footsteps have rho0 = 0
-    lam = math.exp(-eta * inp.sampling_period_s)
-    w0 = 1.0 - (1.0 - lam) / (eta * inp.sampling_period_s)
-    mu_c = math.exp(-eta * T_c)
-    h = inp.zmp_half_width_m
-    box = h * (1.0 - mu_c) - inp.restriction_rate_mps * ((1.0 - mu_c) / eta - T_c * mu_c)
-    upper = centre + reach_hi + w0 * (inp.zmp_pos_m - c0 - h) + box
-    lower = centre + reach_lo + w0 * (inp.zmp_pos_m - c0 + h) - box
+    k = inp._consts  # type: ignore[attr-defined]
+    centre = G @ nominal
+    if landed:
+        centre -= k["w0"] * (rho0 @ nominal)  # c_0 = p_0 + sum_j rho_j(0) Δ_j
+    upper = centre + gamma @ inp._reach_hi + k["upper"]  # type: ignore[attr-defined]
+    lower = centre + gamma @ inp._reach_lo + k["lower"]  # type: ignore[attr-defined]
     return lower, upper
 
 
@@ -349,21 +363,34 @@ class AffineFeasibility:
 
 
 def _best_line_below(x: np.ndarray, y: np.ndarray, anchor: float) -> tuple[float, float]:
-    """Line a + b x below all points (x_i, y_i), maximal at ``anchor`` (lower convex hull)."""
-    i, j = np.triu_indices(x.size, k=1)
-    dx = x[j] - x[i]
-    keep = dx > 1e-15 * max(1.0, float(np.max(np.abs(x))))
-    if not np.any(keep):
-        return float(np.min(y)), 0.0
-    i, j = i[keep], j[keep]
-    slope = (y[j] - y[i]) / (x[j] - x[i])
-    offset = y[i] - slope * x[i]
-    viol = np.max(offset[:, None] + slope[:, None] * x[None, :] - y[None, :], axis=1)
-    value = offset + slope * anchor - np.maximum(viol, 0.0) * (1.0 + 1e3)
-    best = int(np.argmax(value))
-    a, b = float(offset[best]), float(slope[best])
-    # Make it exactly valid at every point (removes rounding and picks up any residual violation).
-    a -= max(0.0, float(np.max(a + b * x - y)))
+    """Line a + b x below all points (x_i, y_i), maximal at ``anchor``.
+
+    That line is the edge of the lower convex hull of the points above ``anchor``; the points
+    are few (interval ends and breakpoints), so the hull is built in plain Python.
+    """
+    pts: dict[float, float] = {}
+    for xi, yi in zip(x.tolist(), y.tolist()):
+        pts[xi] = min(yi, pts.get(xi, math.inf))
+    xs = sorted(pts)
+    if len(xs) == 1:
+        return pts[xs[0]] - _INNER_SAFETY_M, 0.0
+    hull: list[tuple[float, float]] = []
+    for xi in xs:
+        yi = pts[xi]
+        while len(hull) >= 2:
+            (x1, y1), (x2, y2) = hull[-2], hull[-1]
+            if (x2 - x1) * (yi - y1) - (y2 - y1) * (xi - x1) <= 0.0:  # hull[-1] not strictly below
+                hull.pop()
+            else:
+                break
+        hull.append((xi, yi))
+    for (x1, y1), (x2, y2) in zip(hull[:-1], hull[1:]):
+        if anchor <= x2:
+            break
+    b = (y2 - y1) / (x2 - x1)
+    a = y1 - b * x1
+    # Exactly valid at every point (rounding), with a tiny safety against float noise.
+    a -= max(0.0, max(a + b * xi - yi for xi, yi in pts.items())) + _INNER_SAFETY_M
     return a, b
 
 
@@ -543,3 +570,88 @@ def feasibility_bounds_lp(inputs: AxisFeasibilityInputs, first_ramp_start_s: flo
             raise SolverError(f"feasibility LP failed: {res.message}", problem=prog, exitflag=res.status)
         out.append(sign * res.fun + prog.dcm_offset_m)
     return out[0], out[1]
+
+
+def straight_gait_inputs(
+    axis: str,
+    *,
+    eta: float,
+    sampling_period_s: float,
+    control_horizon_s: float,
+    preview_horizon_s: float,
+    T_ss_s: float,
+    T_ds_s: float,
+    num_footsteps: int,
+    zmp_box_m: float,
+    kin_box_m: float,
+    step_length_m: float = 0.0,
+    foot_spacing_m: float = 0.0,
+    next_foot_sign: int = 1,
+    support_pos_m: float = 0.0,
+    zmp_pos_m: float | None = None,
+    restriction_rate_mps: float = 0.0,
+    tail_anchor: str = "candidate",
+) -> AxisFeasibilityInputs:
+    """Inputs for a regular straight gait along one axis (θ ≡ 0), in the support-foot frame.
+
+    Sagittal (``axis="x"``): every candidate displacement is ``step_length_m`` and the
+    kinematic bounds are ±``kin_box_m``/2 (spec §5). Coronal (``axis="y"``): footstep j
+    has side s_j = ``next_foot_sign`` · (−1)^{j−1} (+1 left), candidate displacement s_j ℓ and
+    bounds s_j ℓ ∓ ``kin_box_m``/2.
+
+    Parameters
+    ----------
+    axis : str
+        ``"x"`` or ``"y"``.
+    eta, sampling_period_s, control_horizon_s, preview_horizon_s : float
+        η [1/s], δ, T_c, T_p [s].
+    T_ss_s, T_ds_s : float
+        Nominal single and double support [s] of the later steps.
+    num_footsteps : int
+        N, footsteps after the current support.
+    zmp_box_m, kin_box_m : float
+        Full sides d_z and d_a along the axis [m].
+    step_length_m : float
+        Sagittal candidate displacement [m] (x only).
+    foot_spacing_m : float
+        ℓ [m] (y only).
+    next_foot_sign : int
+        +1 if footstep 1 (the swing foot) is a left foot, −1 if right (y only).
+    support_pos_m : float
+        p_0 [m].
+    zmp_pos_m : float, optional
+        x_z^k [m]; default the support position.
+    restriction_rate_mps : float
+        r [m/s].
+    tail_anchor : str
+        See :class:`AxisFeasibilityInputs`.
+    """
+    if axis not in ("x", "y"):
+        raise ParameterError(f"axis must be 'x' or 'y', got {axis!r}")
+    if not isinstance(num_footsteps, (int, np.integer)) or num_footsteps < 1:
+        raise ParameterError(f"num_footsteps must be an integer >= 1, got {num_footsteps!r}")
+    if next_foot_sign not in (1, -1):
+        raise ParameterError(f"next_foot_sign must be +1 or -1, got {next_foot_sign!r}")
+    if axis == "x":
+        nominal = np.full(num_footsteps, float(step_length_m))
+        centre = np.zeros(num_footsteps)
+    else:
+        sides = next_foot_sign * (-1.0) ** np.arange(num_footsteps)
+        nominal = sides * foot_spacing_m
+        centre = nominal
+    return AxisFeasibilityInputs(
+        support_pos_m=support_pos_m,
+        zmp_pos_m=support_pos_m if zmp_pos_m is None else zmp_pos_m,
+        zmp_half_width_m=zmp_box_m / 2,
+        restriction_rate_mps=restriction_rate_mps,
+        disp_lo_m=centre - kin_box_m / 2,
+        disp_hi_m=centre + kin_box_m / 2,
+        disp_nominal_m=nominal,
+        T_ds_s=T_ds_s,
+        step_periods_s=T_ss_s + T_ds_s,
+        eta=eta,
+        sampling_period_s=sampling_period_s,
+        control_horizon_s=control_horizon_s,
+        preview_horizon_s=preview_horizon_s,
+        tail_anchor=tail_anchor,
+    )

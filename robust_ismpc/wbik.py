@@ -337,7 +337,8 @@ class ActuatorMap:
             ik_jid = mujoco.mj_name2id(ik_model, mujoco.mjtObj.mjOBJ_JOINT, jname)
             if ik_jid < 0:
                 raise ModelError(f"actuated joint {jname!r} is not in the IK model")
-            if int(sim_model.jnt_type[jid]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            hinge_or_slide = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+            if int(sim_model.jnt_type[jid]) not in hinge_or_slide:
                 raise ModelError(f"actuated joint {jname!r} is not a hinge or slide joint")
             ik_q.append(int(ik_model.jnt_qposadr[ik_jid]))
             sim_q.append(int(sim_model.jnt_qposadr[jid]))

@@ -1,0 +1,62 @@
+"""Tests of the footstep plan timing, queries, weights and retiming (spec §3)."""
+
+import numpy as np
+import pytest
+
+from fixtures import straight_plan
+from robust_ismpc.exceptions import ParameterError, PlanError
+from robust_ismpc.footsteps import LEFT, RIGHT
+from robust_ismpc.params import robot_params
+
+
+@pytest.fixture
+def plan():
+    return straight_plan(robot_params("hrp4"), vx=0.2, duration_s=8.0)
+
+
+def test_timing_queries(plan):
+    """step_at, single-support test and time-to-touchdown agree with the timing table."""
+    r = robot_params("hrp4")
+    t2 = plan.ss_start_s[2]
+    assert plan.step_at(t2 + 1e-3) == 2
+    assert plan.in_single_support(t2 + 0.5 * r.T_ss_s)
+    assert plan.time_to_touchdown(t2 + 0.1) == pytest.approx(r.T_ss_s - 0.1)
+    assert not plan.in_single_support(t2 + r.T_ss_s + 0.01)
+    assert plan.time_to_touchdown(t2 + r.T_ss_s + 0.01) == 0.0
+    assert plan.step_at(t2 + r.T_step_s + 1e-3) == 3
+    with pytest.raises(PlanError):
+        plan.step_at(plan.end_s + 1.0)
+
+
+def test_sides_alternate_and_first_support_is_right(plan):
+    """Footstep 1 is the right foot, then sides alternate."""
+    assert plan.side[1] == RIGHT
+    assert np.all(plan.side[2::2] == LEFT) and np.all(plan.side[3::2] == RIGHT)
+
+
+def test_centre_weights_are_convex_and_ramp_in_double_support(plan):
+    """Weights sum to 1; in DS the centre moves linearly from footstep j-1 to j."""
+    j = 3
+    td, tds = plan.touchdown_s[j], plan.T_ds_s[j]
+    times = np.array([td - 0.05, td, td + 0.25 * tds, td + tds - 1e-9])
+    W = plan.weight_matrix(times, j - 1, 2)
+    np.testing.assert_allclose(W.sum(axis=1), 1.0)
+    np.testing.assert_allclose(W[:, 1], [0.0, 0.0, 0.25, 1.0], atol=1e-6)
+    c = plan.centre(times)
+    np.testing.assert_allclose(c[2], 0.75 * plan.pos_m[j - 1] + 0.25 * plan.pos_m[j])
+
+
+def test_retime_shifts_later_steps_and_keeps_durations(plan):
+    """Moving one touchdown shifts every later step start by the same amount, T_ds unchanged."""
+    j = 4
+    before_start = plan.ss_start_s.copy()
+    before_ds = plan.T_ds_s.copy()
+    new_td = plan.touchdown_s[j] - 0.1
+    shift = plan.retime_touchdown(j, new_td)
+    assert shift == pytest.approx(-0.1)
+    assert plan.touchdown_s[j] == pytest.approx(new_td)
+    np.testing.assert_allclose(plan.ss_start_s[j + 1 :], before_start[j + 1 :] - 0.1)
+    np.testing.assert_allclose(plan.ss_start_s[: j + 1], before_start[: j + 1])
+    np.testing.assert_array_equal(plan.T_ds_s, before_ds)
+    with pytest.raises(ParameterError):
+        plan.retime_touchdown(j, plan.ss_start_s[j] - 0.01)

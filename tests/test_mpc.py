@@ -1,0 +1,129 @@
+"""Tests of the IS-MPC QP: constraint rows, optimality, solver agreement, infeasibility (spec §4-§7)."""
+
+import numpy as np
+import pytest
+
+from fixtures import straight_plan
+from robust_ismpc.controller import IsmpcController
+from robust_ismpc.exceptions import InfeasibleMpc
+from robust_ismpc.mpc import IsmpcQp, MpcState
+from robust_ismpc.params import MpcParams, robot_params
+from robust_ismpc.qp import DaqpSolver, QpsolversSolver
+
+
+@pytest.fixture
+def robot():
+    return robot_params("g1")
+
+
+def _midstep_state(plan, robot):
+    """A feasible state inside the single support of step 3: run the controller open loop there."""
+    mpc = MpcParams()
+    controller = IsmpcController(robot, mpc)
+    controller.reset(plan, np.zeros(2))
+    t_target = float(plan.ss_start_s[3] + 0.1)
+    for k in range(int(round(t_target / mpc.sampling_period_s))):
+        controller.step(k * mpc.sampling_period_s)
+    t = int(round(t_target / mpc.sampling_period_s)) * mpc.sampling_period_s
+    return controller._mpc_state(t, None)
+
+
+def test_zmp_rows_measure_zmp_minus_box_centre(robot):
+    """Row i of the ZMP block applied to (u, f) plus the known offset equals x_z^{k+i+1} - c(t_{k+i+1})."""
+    plan = straight_plan(robot, 0.3, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams())
+    state = _midstep_state(plan, robot)
+    problems, layout, hf = qp.build(plan, state)
+    rng = np.random.default_rng(0)
+    u = 0.05 * rng.normal(size=layout.C)
+    f = plan.candidate_pos_m[hf.first_free : hf.first_free + layout.F, 0] + 0.01 * rng.normal(size=layout.F)
+    z = np.concatenate([u, f])
+    A, lower = problems[0].A, problems[0].lower
+    row_value = A[: layout.C] @ z
+    # lower = -d/2 - offset  =>  offset = -d/2 - lower
+    offset = -0.5 * robot.zmp_box_x_m - lower[: layout.C]
+    positions = plan.pos_m.copy()
+    positions[hf.first_free : hf.first_free + layout.F, 0] = f
+    times = state.t_s + qp.horizon_offsets_s
+    zmp = state.zmp_m[0] + qp.dt * np.cumsum(u)
+    np.testing.assert_allclose(row_value + offset, zmp - plan.centre(times, positions)[:, 0], atol=1e-12)
+
+
+def test_zmp_boundary_point_passes_and_outside_fails(robot):
+    """A ZMP trajectory on the box edge satisfies the rows; 1 mm further violates them."""
+    plan = straight_plan(robot, 0.0, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams(fix_footsteps=True))
+    t = float(plan.ss_start_s[3] + 0.05)
+    edge = plan.centre(np.array([t]))[0, 0] + 0.5 * robot.zmp_box_x_m
+    problems, layout, _ = qp.build(plan, MpcState(t, np.zeros(2), np.array([edge, 0.0])))
+    p = problems[0]
+    zmp_rows = slice(0, layout.C)
+    u = np.zeros(layout.C)  # ZMP stays on the front edge while the support does not move
+    still = np.abs(plan.centre(t + qp.horizon_offsets_s)[:, 0] - plan.centre(np.array([t]))[0, 0]) < 1e-12
+    values = p.A[zmp_rows] @ u
+    assert np.all(values[still] <= p.upper[zmp_rows][still] + 1e-12)
+    assert np.all(values[still] >= p.lower[zmp_rows][still] - 1e-12)
+    problems2, _, _ = qp.build(plan, MpcState(t, np.zeros(2), np.array([edge + 1e-3, 0.0])))
+    p2 = problems2[0]
+    assert np.all(p2.A[zmp_rows][still] @ u > p2.upper[zmp_rows][still])
+
+
+def test_kinematic_rows_alternate_sides(robot):
+    """The lateral kinematic bounds of successive free footsteps alternate around ±ℓ."""
+    plan = straight_plan(robot, 0.2, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams(control_horizon_s=1.6, preview_horizon_s=2.5))
+    state = _midstep_state(plan, robot)
+    problems, layout, hf = qp.build(plan, state)
+    assert layout.F >= 2
+    py = problems[1]
+    kin = slice(layout.C, layout.C + layout.F)
+    sides = plan.side[hf.first_free : hf.first_free + layout.F]
+    # first free footstep: bounds relative to the known support foot
+    support_y = plan.pos_m[hf.first_free - 1, 1]
+    mid = 0.5 * (py.lower[kin][0] + py.upper[kin][0]) - support_y
+    assert mid == pytest.approx(sides[0] * robot.foot_spacing_m)
+    mids = 0.5 * (py.lower[kin][1:] + py.upper[kin][1:])
+    np.testing.assert_allclose(mids, sides[1:] * robot.foot_spacing_m)
+    assert np.all(np.diff(sides) != 0)
+    # a footstep exactly on the outer kinematic edge passes, 1 mm beyond fails
+    z = np.zeros(layout.n)
+    z[layout.footsteps()] = plan.pos_m[hf.first_free - 1, 1] + py.upper[kin][0] - support_y
+    z[layout.C + 1 :] = 0.0
+    assert py.A[kin][0] @ z <= py.upper[kin][0] + 1e-12
+    z[layout.C] += 1e-3
+    assert py.A[kin][0] @ z > py.upper[kin][0]
+
+
+@pytest.mark.parametrize("omega", [0.0, 0.3])
+def test_daqp_solution_is_optimal_and_matches_quadprog(robot, omega):
+    """DAQP and quadprog return the same minimiser; it satisfies the constraints and beats perturbations."""
+    plan = straight_plan(robot, 0.2, omega=omega, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams())
+    state = _midstep_state(plan, robot)
+    problems, layout, _ = qp.build(plan, state)
+    assert layout.coupled == (omega != 0.0)
+    rng = np.random.default_rng(5)
+    for p in problems:
+        x1 = DaqpSolver().solve(p).x
+        x2 = QpsolversSolver("quadprog").solve(p).x
+        np.testing.assert_allclose(x1, x2, atol=1e-6)
+        assert p.violation(x1) < 1e-8
+        # feasible perturbations inside the null space of the equalities cannot lower the cost
+        eq = p.A[p.equality]
+        _, _, vt = np.linalg.svd(eq)
+        null = vt[eq.shape[0] :].T
+        for _ in range(20):
+            d = null @ rng.normal(size=null.shape[1]) * 1e-4
+            if p.violation(x1 + d) == 0.0:
+                assert p.objective(x1 + d) >= p.objective(x1) - 1e-12
+
+
+def test_infeasible_qp_raises_with_problem(robot):
+    """A DCM far outside the feasibility region raises InfeasibleMpc carrying the QP."""
+    plan = straight_plan(robot, 0.2, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams())
+    state = _midstep_state(plan, robot)
+    bad = MpcState(state.t_s, state.dcm_m + np.array([0.0, 0.5]), state.zmp_m)
+    with pytest.raises(InfeasibleMpc) as info:
+        qp.solve(plan, bad)
+    assert info.value.problem is not None and info.value.problem.A.shape[1] > 0
