@@ -38,7 +38,7 @@ class _RecordingSolver(DaqpSolver):
     def solve(self, problem):
         self._count += 1
         if self._count % self.keep_every == 0:
-            self.kept.append(problem)
+            self.kept.append(problem.copy())
         return super().solve(problem)
 
 

@@ -565,7 +565,9 @@ def feasibility_bounds_lp(inputs: AxisFeasibilityInputs, first_ramp_start_s: flo
     out = []
     for sign in (1.0, -1.0):
         res = scipy.optimize.linprog(sign * prog.dcm_row, A_ub=prog.A_ub, b_ub=prog.b_ub,
-                                     bounds=(None, None), method="highs")
+                                     bounds=(None, None), method="highs",
+                                     options={"primal_feasibility_tolerance": 1e-10,
+                                              "dual_feasibility_tolerance": 1e-10})
         if res.status != 0:
             raise SolverError(f"feasibility LP failed: {res.message}", problem=prog, exitflag=res.status)
         out.append(sign * res.fun + prog.dcm_offset_m)

@@ -93,9 +93,14 @@ class FootstepPlan:
         return float(self.ss_start_s[-1] + self.T_ss_s[-1] + self.T_ds_s[-1])
 
     def step_at(self, t_s: float | np.ndarray) -> np.ndarray | int:
-        """Index j of the step under way at ``t_s`` (ss_start[j] <= t < next start)."""
+        """Index j of the step under way at ``t_s`` (ss_start[j] <= t < next start).
+
+        ``t_s`` may be a scalar or an increasing array.
+        """
         t = np.asarray(t_s, dtype=float)
-        if np.any(t >= self.end_s) or np.any(t < self.ss_start_s[1] - 1e-12):
+        first = float(t.flat[0])
+        last = float(t.flat[-1])
+        if last >= self.end_s or first < self.ss_start_s[1] - 1e-12 or not (first == first and last == last):
             raise PlanError(
                 f"time {t_s} is outside the footstep plan [{self.ss_start_s[1]}, {self.end_s}); "
                 "plan more steps (a longer walk) or shorten the preview horizon"

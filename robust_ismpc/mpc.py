@@ -97,6 +97,22 @@ class HorizonFootsteps:
     F: int
 
 
+@dataclass(frozen=True)
+class _Structure:
+    """Arrays that depend only on the number of free footsteps F (built once per F).
+
+    ``A_axis`` is a buffer whose integrator and footstep-difference blocks are fixed; each cycle
+    overwrites only the columns that multiply the free footsteps in the ZMP and stability rows.
+    """
+
+    H_axis: np.ndarray  # (C+F, C+F)
+    H_coupled: np.ndarray  # (2(C+F), 2(C+F))
+    A_axis: np.ndarray  # (C+F+1, C+F): ZMP rows, kinematic rows, stability row
+    diff: np.ndarray  # (F, C+F): footstep j minus footstep j-1 (free part)
+    equality_axis: np.ndarray
+    equality_coupled: np.ndarray
+
+
 class IsmpcQp:
     """Builds and solves the IS-MPC QP each cycle.
 
@@ -122,6 +138,33 @@ class IsmpcQp:
         self.half_box = 0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m])
         self._kin_lower = {s: kinematic_box(robot, s)[0] for s in (-1, 1)}
         self._kin_upper = {s: kinematic_box(robot, s)[1] for s in (-1, 1)}
+        self._structures: dict[int, _Structure] = {}
+
+    def _structure(self, F: int) -> _Structure:
+        cached = self._structures.get(F)
+        if cached is not None:
+            return cached
+        C = self.C
+        n = C + F
+        H_axis = np.diag(np.concatenate([np.ones(C), np.full(F, self.mpc.footstep_weight)]))
+        H_coupled = np.zeros((2 * n, 2 * n))
+        H_coupled[:n, :n] = H_axis
+        H_coupled[n:, n:] = H_axis
+        diff = np.zeros((F, n))
+        diff[np.arange(F), C + np.arange(F)] = 1.0
+        if F > 1:
+            diff[np.arange(1, F), C + np.arange(F - 1)] = -1.0
+        A_axis = np.zeros((n + 1, n))
+        A_axis[:C, :C] = self.integrator
+        A_axis[C:n] = diff
+        A_axis[n, :C] = self.stab.zmp_vel
+        eq_axis = np.zeros(n + 1, dtype=bool)
+        eq_axis[-1] = True
+        eq_coupled = np.zeros(2 * C + 2 * F + 2, dtype=bool)
+        eq_coupled[-2:] = True
+        structure = _Structure(H_axis, H_coupled, A_axis, diff, eq_axis, eq_coupled)
+        self._structures[F] = structure
+        return structure
 
     # ------------------------------------------------------------------------------------
     def horizon_footsteps(self, plan: FootstepPlan, t_s: float) -> HorizonFootsteps:
@@ -161,7 +204,8 @@ class IsmpcQp:
         Returns
         -------
         problems : list of QpProblem
-            Two per-axis problems (x, y) or one coupled problem.
+            Two per-axis problems (x, y) or one coupled problem. Per-axis problems share a
+            constraint buffer that the next call overwrites: ``copy()`` a problem to keep it.
         layout : QpLayout
         footsteps : HorizonFootsteps
         """
@@ -185,16 +229,10 @@ class IsmpcQp:
         tail_free = self.stab.tail @ W_t[:, free]  # (F,)
         R = np.zeros(C) if restriction_m is None else np.asarray(restriction_m, dtype=float)
 
-        # Shared per-axis blocks.
-        zmp_block = np.hstack([self.integrator, -W_free])  # (C, C+F): p_z - centre (free part)
+        st = self._structure(F)
         offset = state.zmp_m[None, :] - centre_fixed  # (C, 2): p_z - centre (known part)
-        stab_row = np.concatenate([self.stab.zmp_vel, tail_free])  # (C+F,)
         stab_rhs = state.dcm_m - self.stab.zmp_now * state.zmp_m - tail_fixed  # (2,)
         free_idx = np.arange(hf.first_free, hf.first_free + F)
-        diff = np.zeros((F, C + F))  # footstep j minus footstep j-1 (free part)
-        diff[np.arange(F), C + np.arange(F)] = 1.0
-        if F > 1:
-            diff[np.arange(1, F), C + np.arange(F - 1)] = -1.0
         prev_known = np.zeros((F, 2))
         if F:
             prev_known[0] = plan.pos_m[hf.first_free - 1]
@@ -203,15 +241,15 @@ class IsmpcQp:
         kin_upper = np.array([self._kin_upper[int(s)] for s in sides]).reshape(F, 2)
         target = plan.candidate_pos_m[free_idx]  # (F, 2)
         beta = self.mpc.footstep_weight
-        H_axis = np.diag(np.concatenate([np.ones(C), np.full(F, beta)]))
         yaw_rows = plan.centre_yaw(t_h)
         yaw_kin = plan.yaw_rad[free_idx - 1]
         coupled = bool(np.any(np.abs(yaw_rows) > 1e-12) or np.any(np.abs(yaw_kin) > 1e-12))
         layout = QpLayout(C=C, F=F, coupled=coupled)
-        eq = np.zeros(C + F + 1, dtype=bool)
-        eq[-1] = True
 
         if not coupled:
+            A = st.A_axis
+            A[:C, C:] = -W_free
+            A[-1, C:] = tail_free
             problems = []
             for axis in range(2):
                 lower = np.concatenate([
@@ -225,12 +263,14 @@ class IsmpcQp:
                     [stab_rhs[axis]],
                 ])
                 g = np.concatenate([np.zeros(C), -beta * target[:, axis]])
-                A = np.vstack([zmp_block, diff, stab_row])
-                problems.append(QpProblem(H_axis, g, A, lower, upper, eq))
+                problems.append(QpProblem(st.H_axis, g, A, lower, upper, st.equality_axis, tag="xy"[axis]))
             return problems, layout, hf
 
         # Coupled: rotate the ZMP rows into the box frame and the kinematic rows into the
         # previous footstep's frame.
+        zmp_block = np.hstack([self.integrator, -W_free])  # (C, C+F): p_z - centre (free part)
+        stab_row = np.concatenate([self.stab.zmp_vel, tail_free])
+        diff = st.diff
         cz, sz = np.cos(yaw_rows)[:, None], np.sin(yaw_rows)[:, None]
         ck, sk = np.cos(yaw_kin)[:, None], np.sin(yaw_kin)[:, None]
         zero_stab = np.zeros(C + F)
@@ -260,13 +300,8 @@ class IsmpcQp:
             kin_upper[:, 1] + prev_b,
             stab_rhs,
         ])
-        H = np.zeros((2 * (C + F), 2 * (C + F)))
-        H[: C + F, : C + F] = H_axis
-        H[C + F :, C + F :] = H_axis
         g = np.concatenate([np.zeros(C), -beta * target[:, 0], np.zeros(C), -beta * target[:, 1]])
-        eq2 = np.zeros(A.shape[0], dtype=bool)
-        eq2[-2:] = True
-        return [QpProblem(H, g, A, lower, upper, eq2)], layout, hf
+        return [QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy")], layout, hf
 
     def solve(
         self,

@@ -36,6 +36,9 @@ class QpProblem:
         Row bounds; equal for equality rows.
     equality : ndarray of bool, shape (m,)
         Which rows are equalities.
+    tag : str
+        Identifies a family of problems solved in sequence (e.g. the x-axis QP), so that a
+        warm-starting solver keeps one workspace per family.
     """
 
     H: np.ndarray
@@ -44,14 +47,20 @@ class QpProblem:
     lower: np.ndarray
     upper: np.ndarray
     equality: np.ndarray
+    tag: str = ""
+
+    def copy(self) -> QpProblem:
+        """Deep copy (problems built by IsmpcQp share buffers that the next cycle overwrites)."""
+        return QpProblem(self.H.copy(), self.g.copy(), self.A.copy(), self.lower.copy(), self.upper.copy(),
+                         self.equality.copy(), self.tag)
 
     @property
     def n(self) -> int:
         return self.H.shape[0]
 
     @property
-    def shape_key(self) -> tuple[int, int]:
-        return (self.A.shape[0], self.A.shape[1])
+    def workspace_key(self) -> tuple[str, int, int]:
+        return (self.tag, self.A.shape[0], self.A.shape[1])
 
     def objective(self, x: np.ndarray) -> float:
         """Cost ½xᵀHx + gᵀx."""
@@ -96,10 +105,12 @@ class QpSolver:
 
 @dataclass
 class DaqpSolver(QpSolver):
-    """DAQP called directly, one warm-started workspace per problem shape.
+    """DAQP called directly, one warm-started workspace per problem family and shape.
 
     DAQP reads the raw buffers of its inputs, so every array handed to it is made
-    C-contiguous float64 first (a non-contiguous view silently gives wrong answers).
+    C-contiguous float64 first (a non-contiguous view silently gives wrong answers). The
+    Hessian is handed to a workspace again only when it is a different object from the one
+    it holds: re-passing H makes DAQP refactorise and forget the active set.
     """
 
     name = "daqp"
@@ -119,26 +130,32 @@ class DaqpSolver(QpSolver):
         upper = np.ascontiguousarray(problem.upper, dtype=np.float64)
         lower = np.ascontiguousarray(problem.lower, dtype=np.float64)
         start = time.perf_counter()
-        model = self._models.get(problem.shape_key)
-        if model is None:
+        key = problem.workspace_key
+        entry = self._models.get(key)
+        if entry is None:
             sense = np.ascontiguousarray(np.where(problem.equality, 5, 0), dtype=np.int32)
             model = daqp.Model()
             model.settings = {"primal_tol": self.primal_tol, "iter_limit": self.iter_limit}
             flag, _ = model.setup(H, g, A, upper, lower, sense)
             if flag < 0:
-                raise SolverError(f"DAQP setup failed with exit flag {flag}", problem, flag)
-            self._models[problem.shape_key] = model
+                raise SolverError(f"DAQP setup failed with exit flag {flag}", problem.copy(), flag)
+            self._models[key] = (model, problem.H)
         else:
-            model.update(H=H, f=g, A=A, bupper=upper, blower=lower)
+            model, held_H = entry
+            if held_H is problem.H:
+                model.update(f=g, A=A, bupper=upper, blower=lower)
+            else:
+                model.update(H=H, f=g, A=A, bupper=upper, blower=lower)
+                self._models[key] = (model, problem.H)
         x, _, exitflag, info = model.solve()
         elapsed = time.perf_counter() - start
         if exitflag == -1:
             # Drop the workspace: its active set belongs to an infeasible problem.
-            self._models.pop(problem.shape_key, None)
-            raise InfeasibleMpc("IS-MPC QP is infeasible (DAQP exit flag -1)", problem, exitflag)
+            self._models.pop(key, None)
+            raise InfeasibleMpc("IS-MPC QP is infeasible (DAQP exit flag -1)", problem.copy(), exitflag)
         if exitflag < 0:
-            self._models.pop(problem.shape_key, None)
-            raise SolverError(f"DAQP failed with exit flag {exitflag}", problem, exitflag)
+            self._models.pop(key, None)
+            raise SolverError(f"DAQP failed with exit flag {exitflag}", problem.copy(), exitflag)
         return QpSolution(x=np.array(x), solve_time_s=elapsed, iterations=int(info.get("iterations", -1)))
 
 
@@ -180,7 +197,7 @@ class QpsolversSolver(QpSolver):
         )
         elapsed = time.perf_counter() - start
         if not sol.found or sol.x is None:
-            raise InfeasibleMpc(f"IS-MPC QP not solved by {self.backend}", problem, None)
+            raise InfeasibleMpc(f"IS-MPC QP not solved by {self.backend}", problem.copy(), None)
         return QpSolution(x=np.asarray(sol.x), solve_time_s=elapsed)
 
 

@@ -11,6 +11,8 @@ feasibility bounds (:func:`robust_ismpc.feasibility.affine_inner_estimate`), QP-
     \text{s.t.}\ a^m_x + b^m_xΔλ + m_s - σ_x \le \bar x_u \le a^M_x + b^M_xΔλ - m_s + σ_x
     \ \text{(same for y)},\quad Δλ_{min} \le Δλ \le Δλ_{max}.
 
+The slack is an exact-penalty fallback: when the hard constraints (σ = 0) are satisfiable their
+solution is returned (the limit ρ → ∞), otherwise the soft problem with weight ρ is solved.
 Being scalar it is solved in closed form: with σ eliminated
 (:math:`σ = \max(0, \text{violations})`) the cost is a convex piecewise quadratic in Δλ whose
 pieces are delimited by at most six points; each piece is minimised analytically. When the hard
@@ -111,6 +113,9 @@ def solve_sta_qp(
     slack_weight: float,
 ) -> tuple[float, bool, tuple[float, float]]:
     """Closed-form solution of the scalar QP-STA on [Δλ_min, Δλ_max] of the estimates.
+
+    If the hard constraints (zero slack) admit a solution, the result is the projection of
+    ``delta_lambda_nominal`` on their interval; otherwise the soft problem is minimised.
 
     Parameters
     ----------

@@ -33,7 +33,7 @@ import numpy as np
 
 from .exceptions import ModelError, ParameterError, SolverError
 from .reference import GaitReference
-from .robots.spec import RobotSpec, foot_frame_pose, frame_id
+from .robots.spec import RobotSpec, foot_frame_pose, frame_body, frame_id
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -174,6 +174,9 @@ class WholeBodyIk:
             for side in ("left", "right")
         }
         self._offsets = {side: spec.sole_offset_m(side) for side in ("left", "right")}
+        self._foot_bodies = {
+            side: frame_body(self.model, spec.foot_frame_type, fid) for side, fid in self._foot_ids.items()
+        }
         self.last_solve_time_s = 0.0
 
     # ------------------------------------------------------------------ state
@@ -288,6 +291,51 @@ class WholeBodyIk:
         self.set_reference(reference)
         return self.solve(dt_s, measured_base_qpos)
 
+    def static_torques(self, left_load: float, left_contact: bool = True, right_contact: bool = True) -> np.ndarray:
+        """Generalised forces that hold the reference configuration still under gravity.
+
+        The sole wrenches are the weighted minimum-norm solution of the floating-base
+        equilibrium :math:`J_{c,b}^T f = g_b`, with the vertical load shared ``left_load`` :
+        ``1 - left_load`` between the feet in contact; the joint torques are then
+        :math:`\tau = g_j - J_{c,j}^T f`.
+
+        Parameters
+        ----------
+        left_load : float
+            Share of the weight on the left foot, in [0, 1].
+        left_contact, right_contact : bool
+            Which feet carry load (at least one).
+
+        Returns
+        -------
+        ndarray, shape (model.nv,)
+            Torques [N m] (zero on the floating-base coordinates).
+        """
+        m, d = self.model, self.configuration.data
+        gravity = np.empty(m.nv)
+        mujoco.mj_rne(m, d, 0, gravity)
+        sides = [s for s, flag in (("left", left_contact), ("right", right_contact)) if flag]
+        if not sides:
+            return np.zeros(m.nv)
+        jac_rows, weights = [], []
+        jacp, jacr = np.empty((3, m.nv)), np.empty((3, m.nv))
+        for side in sides:
+            pos, _ = self.sole_pose(side)
+            body = self._foot_bodies[side]
+            mujoco.mj_jac(m, d, jacp, jacr, pos, body)
+            jac_rows.append(np.vstack([jacp, jacr]))
+            share = left_load if side == "left" else 1.0 - left_load
+            weights.append(np.full(6, min(max(share, 0.02), 1.0)))
+        jac = np.vstack(jac_rows)  # (6 k, nv)
+        w = np.concatenate(weights)
+        jb = jac[:, :6]  # base columns
+        # f = W jb (jb^T W jb)^-1 g_b  (W = diag(load share): heavier foot takes more)
+        lhs = jb.T @ (w[:, None] * jb)
+        force = w * (jb @ np.linalg.solve(lhs, gravity[:6]))
+        torque = gravity - jac.T @ force
+        torque[:6] = 0.0
+        return torque
+
     def errors(self) -> IkErrors:
         """Task errors of the current reference configuration."""
         conf = self.configuration
@@ -313,8 +361,10 @@ class ActuatorMap:
 
     Attributes
     ----------
-    ik_qpos_index : ndarray of int, shape (nu,)
-        For actuator ``a``, the index in the IK ``qpos`` of its joint.
+    ik_qpos_index, ik_dof_index : ndarray of int, shape (nu,)
+        For actuator ``a``, the index in the IK ``qpos`` / ``qvel`` of its joint.
+    kp : ndarray, shape (nu,)
+        Position gains of the servos [N m/rad] (meaningless for motors).
     sim_qpos_index, sim_dof_index : ndarray of int, shape (nu,)
         Index of the actuated joint in the simulation ``qpos`` / ``qvel``.
     is_position : ndarray of bool, shape (nu,)
@@ -328,7 +378,7 @@ class ActuatorMap:
     """
 
     def __init__(self, sim_model: mujoco.MjModel, ik_model: mujoco.MjModel) -> None:
-        ik_q, sim_q, sim_v, is_pos = [], [], [], []
+        ik_q, ik_v, sim_q, sim_v, is_pos = [], [], [], [], []
         for a in range(sim_model.nu):
             if sim_model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
                 raise ModelError(f"actuator {sim_model.actuator(a).name!r} does not drive a joint")
@@ -341,11 +391,14 @@ class ActuatorMap:
             if int(sim_model.jnt_type[jid]) not in hinge_or_slide:
                 raise ModelError(f"actuated joint {jname!r} is not a hinge or slide joint")
             ik_q.append(int(ik_model.jnt_qposadr[ik_jid]))
+            ik_v.append(int(ik_model.jnt_dofadr[ik_jid]))
             sim_q.append(int(sim_model.jnt_qposadr[jid]))
             sim_v.append(int(sim_model.jnt_dofadr[jid]))
             kp = sim_model.actuator_gainprm[a, 0]
             is_pos.append(bool(kp > 0 and abs(sim_model.actuator_biasprm[a, 1] + kp) < 1e-9 * max(1.0, kp)))
         self.ik_qpos_index = np.array(ik_q, dtype=int)
+        self.ik_dof_index = np.array(ik_v, dtype=int)
+        self.kp = sim_model.actuator_gainprm[:, 0].copy()
         self.sim_qpos_index = np.array(sim_q, dtype=int)
         self.sim_dof_index = np.array(sim_v, dtype=int)
         self.is_position = np.array(is_pos, dtype=bool)

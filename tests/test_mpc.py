@@ -56,7 +56,7 @@ def test_zmp_boundary_point_passes_and_outside_fails(robot):
     t = float(plan.ss_start_s[3] + 0.05)
     edge = plan.centre(np.array([t]))[0, 0] + 0.5 * robot.zmp_box_x_m
     problems, layout, _ = qp.build(plan, MpcState(t, np.zeros(2), np.array([edge, 0.0])))
-    p = problems[0]
+    p = problems[0].copy()
     zmp_rows = slice(0, layout.C)
     u = np.zeros(layout.C)  # ZMP stays on the front edge while the support does not move
     still = np.abs(plan.centre(t + qp.horizon_offsets_s)[:, 0] - plan.centre(np.array([t]))[0, 0]) < 1e-12

@@ -7,8 +7,12 @@ the actuator commands. Between control ticks it steps the physics at the model's
 writing disturbance forces into ``xfrc_applied`` before every step.
 
 Actuators: position servos (``ctrl`` = joint target, as in the G1 and OP3 Menagerie models)
-receive the IK joint angles; torque motors receive a PD law
-``kp (q_ik - q) - kd q̇`` evaluated at every physics step.
+receive the IK joint angles plus a static feedforward ``τ_ff / kp``; torque motors receive
+``τ_ff + kp (q_ik - q) - kd q̇`` evaluated at every physics step. ``τ_ff`` holds the IK reference
+configuration against gravity with the weight shared between the feet according to the reference
+ZMP (:meth:`~robust_ismpc.wbik.WholeBodyIk.static_torques`). Without it the stiff-but-finite
+servos sag under load (G1: knees 0.05 rad, pelvis pitched 2.3 deg, CoM 1 cm behind and 7 mm
+below the reference) and a lateral CoM shift overshoots by 60 %.
 """
 
 from __future__ import annotations
@@ -60,6 +64,8 @@ class LoopSettings:
         Normal force above which a foot is in contact [N]; None: 1 % of the weight.
     motor_kp, motor_kd : float
         PD gains for torque-motor actuators [N m/rad], [N m s/rad] (unused for position servos).
+    gravity_feedforward : bool
+        Add the static joint torques of the reference configuration to the servo commands.
     """
 
     control_period_s: float = 0.01
@@ -69,6 +75,7 @@ class LoopSettings:
     contact_threshold_n: float | None = None
     motor_kp: float = 200.0
     motor_kd: float = 5.0
+    gravity_feedforward: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.control_period_s, (int, float)) or not self.control_period_s > 0:
@@ -245,23 +252,37 @@ class MujocoSimulation:
         set_scene_initial_state(self.model, self.data, self.scene_items)
         self.ik.reset()
         self._targets = self.actuators.targets(self.ik.qpos)
+        self._feedforward = np.zeros(self.model.nu)
+        if self.settings.gravity_feedforward:
+            self._feedforward = self.ik.static_torques(0.5)[self.actuators.ik_dof_index]
         self._apply_targets()
 
     def _apply_targets(self) -> None:
         act = self.actuators
         if act.is_position.all():
-            self.data.ctrl[:] = self._targets
+            self.data.ctrl[:] = self._targets + self._feedforward / act.kp
             return
         d = self.data
         q = d.qpos[act.sim_qpos_index]
         qd = d.qvel[act.sim_dof_index]
-        torque = self.settings.motor_kp * (self._targets - q) - self.settings.motor_kd * qd
-        d.ctrl[:] = np.where(act.is_position, self._targets, torque)
+        torque = self._feedforward + self.settings.motor_kp * (self._targets - q) - self.settings.motor_kd * qd
+        position = self._targets + self._feedforward / np.where(act.is_position, act.kp, 1.0)
+        d.ctrl[:] = np.where(act.is_position, position, torque)
 
     def command(self, reference: GaitReference) -> None:
         """Run one IK step on ``reference`` and set the actuator targets."""
         qpos = self.ik.step(reference, self.settings.control_period_s, self.robot.base_qpos())
         self._targets = self.actuators.targets(qpos)
+        if self.settings.gravity_feedforward:
+            left, right = reference.left_foot, reference.right_foot
+            if left.in_contact and right.in_contact:
+                l_xy, r_xy = left.pos_m[:2], right.pos_m[:2]
+                span = l_xy - r_xy
+                share = float(np.clip(np.dot(reference.zmp_m - r_xy, span) / max(np.dot(span, span), 1e-12), 0, 1))
+            else:
+                share = 1.0 if left.in_contact else 0.0
+            torques = self.ik.static_torques(share, left.in_contact or not right.in_contact, right.in_contact)
+            self._feedforward = torques[self.actuators.ik_dof_index]
         self._apply_targets()
 
     def advance(self, recorder: VideoRecorder | None = None) -> tuple[np.ndarray, float]:

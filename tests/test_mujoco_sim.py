@@ -1,0 +1,245 @@
+"""Tests of the MuJoCo layer (robust_ismpc.sim): measurements, disturbances, loop, video."""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+
+import numpy as np
+import pytest
+
+from mujoco_fixtures import (  # noqa: F401  (fixtures)
+    ComShiftController,
+    StandingController,
+    g1_spec,
+    op3_spec,
+    robot_spec,
+)
+from robust_ismpc.exceptions import ModelError, ParameterError
+from robust_ismpc.robots import RobotSpec
+from robust_ismpc.sim import (
+    FallCriteria,
+    Force,
+    ForceSchedule,
+    Impulse,
+    LoopSettings,
+    MujocoRobot,
+    MujocoSimulation,
+    Payload,
+    SolePose,
+    SwingingBall,
+    VideoSettings,
+    build_scene,
+    convex_hull,
+    distance_outside,
+    run_mujoco,
+    run_simulation,
+    sole_corners,
+    standing_state,
+)
+
+mujoco = pytest.importorskip("mujoco")
+
+
+# ------------------------------------------------------------------ geometry
+def test_convex_hull_of_two_soles() -> None:
+    """The hull of two side-by-side rectangles is their bounding rectangle (4 vertices)."""
+    left = sole_corners(SolePose(np.array([0.0, 0.1, 0.0]), 0.0), 0.2, 0.1)
+    right = sole_corners(SolePose(np.array([0.0, -0.1, 0.0]), 0.0), 0.2, 0.1)
+    hull = convex_hull(np.vstack([left, right]))
+    assert len(hull) == 4
+    assert hull[:, 0].min() == pytest.approx(-0.1) and hull[:, 1].max() == pytest.approx(0.15)
+
+
+def test_distance_outside_polygon() -> None:
+    """Distance is 0 inside the polygon and the Euclidean distance to the nearest edge outside."""
+    square = convex_hull(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float))
+    assert distance_outside(np.array([0.5, 0.5]), square) == 0.0
+    assert distance_outside(np.array([1.5, 0.5]), square) == pytest.approx(0.5)
+    assert distance_outside(np.array([2.0, 2.0]), square) == pytest.approx(math.sqrt(2))
+    assert distance_outside(np.array([0.0, 0.0]), np.zeros((0, 2))) == math.inf
+
+
+# ------------------------------------------------------------------ measurements
+def test_cop_equals_com_projection_when_still(robot_spec: RobotSpec) -> None:
+    """After settling, the CoP from the contact forces equals the CoM ground projection (< 3 mm)."""
+    sim = MujocoSimulation(robot_spec)
+    controller = StandingController(robot_spec)
+    trace = run_simulation(sim, controller, 1.5)
+    measurement, contacts = sim.robot.measure()
+    assert contacts.left_in_contact and contacts.right_in_contact
+    assert np.linalg.norm(measurement.com_vel_mps) < 5e-3
+    np.testing.assert_allclose(measurement.zmp_m, measurement.com_pos_m[:2], atol=3e-3)
+    weight = robot_spec.mass_kg * 9.81
+    assert contacts.left_force_n + contacts.right_force_n == pytest.approx(weight, rel=0.02)
+    assert trace.max_zmp_outside_m == 0.0
+
+
+def test_com_velocity_matches_momentum(g1_spec: RobotSpec) -> None:
+    """The CoM velocity from body velocities equals MuJoCo's subtree linear momentum / mass."""
+    model = g1_spec.load_model()
+    data = mujoco.MjData(model)
+    standing_state(g1_spec, model, data)
+    data.qvel[:] = np.random.default_rng(0).normal(scale=0.3, size=model.nv)
+    mujoco.mj_forward(model, data)
+    mujoco.mj_subtreeVel(model, data)
+    robot = MujocoRobot(g1_spec, model, data)
+    com, vel = robot.com()
+    np.testing.assert_allclose(com, data.subtree_com[robot.root_id], atol=1e-12)
+    np.testing.assert_allclose(vel, data.subtree_linvel[robot.root_id], atol=1e-10)
+
+
+def test_no_contact_gives_no_zmp(op3_spec: RobotSpec) -> None:
+    """A robot lifted off the floor measures no ZMP and no foot in contact."""
+    model = op3_spec.load_model()
+    data = mujoco.MjData(model)
+    standing_state(op3_spec, model, data)
+    data.qpos[2] += 0.1
+    measurement, contacts = MujocoRobot(op3_spec, model, data).measure()
+    assert measurement.zmp_m is None
+    assert not contacts.left_in_contact and not contacts.right_in_contact
+
+
+# ------------------------------------------------------------------ disturbances
+def test_force_accelerates_com_by_f_over_m(g1_spec: RobotSpec) -> None:
+    """Without gravity, a force on the pelvis changes the CoM velocity by F t / m."""
+    model = copy.deepcopy(g1_spec.load_model())
+    model.opt.gravity[:] = 0.0
+    data = mujoco.MjData(model)
+    standing_state(g1_spec, model, data)
+    data.qpos[2] += 0.5  # in the air
+    mujoco.mj_forward(model, data)
+    robot = MujocoRobot(g1_spec, model, data)
+    schedule = ForceSchedule(model, [Force(fx_n=40.0, fy_n=-20.0, t_start_s=0.0, t_end_s=0.2)], "pelvis")
+    n_steps = int(round(0.2 / model.opt.timestep))
+    for _ in range(n_steps):
+        schedule.apply(data, data.time)
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    _, vel = robot.com()
+    expected = np.array([40.0, -20.0]) * n_steps * model.opt.timestep / robot.mass_kg
+    np.testing.assert_allclose(vel[:2], expected, rtol=1e-3)
+
+
+def test_impulse_is_windowed_force() -> None:
+    """An impulse is a force p / duration during [t, t + duration)."""
+    force = Impulse(px_ns=10.0, py_ns=0.0, t_s=1.0, duration_s=0.1).as_force()
+    assert force.fx_n == pytest.approx(100.0)
+    assert force.is_active(1.05) and not force.is_active(1.1) and not force.is_active(0.99)
+    with pytest.raises(ParameterError):
+        Force(1.0, 0.0, t_start_s=1.0, t_end_s=0.5)
+
+
+def test_unknown_force_body_raises(op3_spec: RobotSpec) -> None:
+    """A force on a body absent from the model raises ModelError naming it."""
+    with pytest.raises(ModelError, match="wing"):
+        ForceSchedule(op3_spec.load_model(), [Force(1.0, 0.0, body="wing")], "body_link")
+
+
+def test_payload_exists_swings_and_is_not_robot_mass(g1_spec: RobotSpec) -> None:
+    """A payload released at an angle swings, and the robot's measured mass excludes it."""
+    items = [Payload(mass_kg=2.0, rope_length_m=0.3, initial_angle_rad=0.4, attach_offset_m=(0.0, 0.0, -0.1))]
+    sim = MujocoSimulation(g1_spec, scene_items=items)
+    body = sim.model.body("disturbance_payload_0").id
+    assert sim.model.body_mass[body] == pytest.approx(2.0)
+    assert sim.robot.mass_kg == pytest.approx(g1_spec.mass_kg)
+    x0 = sim.data.xipos[body][0] - sim.data.xpos[sim.robot.root_id][0]
+    trace = run_simulation(sim, StandingController(g1_spec), 0.3)
+    x1 = sim.data.xipos[body][0] - sim.data.xpos[sim.robot.root_id][0]
+    assert x0 < -0.1 and x1 > x0 + 0.1  # swung through
+    assert not trace.fallen
+
+
+def test_swinging_ball_swings_from_release_angle(op3_spec: RobotSpec) -> None:
+    """A ball released at an angle starts on the -x side at the right height and swings to +x."""
+    ball = SwingingBall(pivot_m=(0.0, 0.5, 1.0), rope_length_m=0.5, mass_kg=0.5, radius_m=0.05,
+                        release_angle_rad=0.6)
+    model = build_scene(op3_spec, [ball])
+    data = mujoco.MjData(model)
+    from robust_ismpc.sim.disturbances import set_scene_initial_state
+
+    standing_state(op3_spec, model, data)
+    set_scene_initial_state(model, data, [ball])
+    body = model.body("disturbance_ball").id
+    np.testing.assert_allclose(data.xipos[body], [-0.5 * math.sin(0.6), 0.5, 1.0 - 0.5 * math.cos(0.6)], atol=1e-9)
+    for _ in range(int(0.8 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    assert data.xipos[body][0] > 0.05
+
+
+# ------------------------------------------------------------------ falls and the loop
+def test_fall_criteria() -> None:
+    """Low root or large tilt counts as a fall; upright at nominal height does not."""
+    crit = FallCriteria(min_height_fraction=0.6, max_tilt_rad=0.8)
+    assert not crit.has_fallen(0.7, 0.7, 0.1)
+    assert crit.has_fallen(0.3, 0.7, 0.1)
+    assert crit.has_fallen(0.7, 0.7, 1.0)
+    with pytest.raises(ParameterError):
+        FallCriteria(min_height_fraction=1.5)
+
+
+def test_strong_push_makes_robot_fall(op3_spec: RobotSpec) -> None:
+    """A push far beyond what standing can absorb is detected as a fall."""
+    push = Force(fx_n=25.0, fy_n=0.0, t_start_s=0.2, t_end_s=0.6)
+    trace = run_mujoco(op3_spec, StandingController(op3_spec), 2.0, [push])
+    assert trace.fallen and trace.fall_time_s is not None and trace.fall_time_s < 2.0
+    assert trace.applied_force_n[30, 0] == pytest.approx(25.0)
+
+
+def test_standing_loop_does_not_fall(robot_spec: RobotSpec) -> None:
+    """Standing in closed loop for 3 s keeps the robot up, the CoM on its reference, faster than 3x real time."""
+    controller = StandingController(robot_spec)
+    trace = run_mujoco(robot_spec, controller, 3.0)
+    assert not trace.fallen
+    assert len(trace.t_s) == 300 and controller.calls == 300
+    assert np.all(trace.left_contact) and np.all(trace.right_contact)
+    assert np.abs(trace.com_pos_m[-50:, :2] - trace.ref_com_pos_m[-50:, :2]).max() < 3e-3
+    assert trace.max_zmp_outside_m == 0.0
+    assert trace.realtime_factor > 3.0
+
+
+def test_com_shift_is_tracked(robot_spec: RobotSpec) -> None:
+    """A CoM reference shifted by a few cm is reached within 5 mm after 1 s."""
+    shift = np.array([0.02, 0.03]) * robot_spec.com_height_m / 0.6
+    controller = ComShiftController(robot_spec, (shift[0], shift[1]), t_start_s=0.2, ramp_s=0.6)
+    trace = run_mujoco(robot_spec, controller, 1.8)
+    assert not trace.fallen
+    final = trace.com_pos_m[-20:, :2].mean(axis=0)
+    np.testing.assert_allclose(final, controller.target(10.0)[:2], atol=5e-3)
+
+
+def test_control_period_must_match_timestep(op3_spec: RobotSpec) -> None:
+    """A control period that is not a multiple of the physics timestep is rejected."""
+    with pytest.raises(ParameterError):
+        MujocoSimulation(op3_spec, settings=LoopSettings(control_period_s=0.0105))
+
+
+# ------------------------------------------------------------------ video
+def _offscreen_gl_works() -> bool:
+    from robust_ismpc.sim import configure_offscreen_gl
+
+    configure_offscreen_gl()
+    try:
+        model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+        renderer = mujoco.Renderer(model, 32, 32)
+        renderer.close()
+        return True
+    except Exception:  # noqa: BLE001  (any GL failure means: skip)
+        return False
+
+
+def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
+    """A short run with video writes an mp4 with the expected number of frames."""
+    if not _offscreen_gl_works():
+        pytest.skip(f"no offscreen OpenGL (MUJOCO_GL={os.environ.get('MUJOCO_GL')})")
+    path = tmp_path / "stand.mp4"
+    trace = run_mujoco(op3_spec, StandingController(op3_spec), 0.5,
+                       video=VideoSettings(path=path, fps=30, width=320, height=240, distance_m=1.0))
+    assert path.stat().st_size > 1000
+    import imageio.v2 as imageio
+
+    reader = imageio.get_reader(str(path))
+    frames = sum(1 for _ in reader)
+    assert 14 <= frames <= 16
+    assert trace.times.render_s > 0

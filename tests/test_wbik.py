@@ -1,0 +1,68 @@
+"""Tests of the whole-body IK (robust_ismpc.wbik)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mujoco_fixtures import double_support_reference, g1_spec, robot_spec  # noqa: F401  (fixtures)
+from robust_ismpc.exceptions import ParameterError
+from robust_ismpc.robots import RobotSpec
+from robust_ismpc.sim import initial_state
+from robust_ismpc.wbik import ActuatorMap, IkSettings, WholeBodyIk
+
+
+def test_ik_converges_with_decreasing_error(robot_spec: RobotSpec) -> None:
+    """From the standing posture, IK on a moved CoM target converges with a decreasing error."""
+    ik = WholeBodyIk(robot_spec)
+    com, left, right = initial_state(robot_spec)
+    target = com + np.array([0.02, 0.015, -0.02]) * robot_spec.com_height_m / 0.6
+    reference = double_support_reference(0.0, target, left, right)
+    errors = []
+    for _ in range(15):
+        ik.step(reference, 0.01)
+        errors.append(np.linalg.norm(ik.com_m() - target))
+    assert errors[-1] < 1e-4
+    assert all(b <= a + 1e-9 for a, b in zip(errors, errors[1:]))
+    err = ik.errors()
+    assert err.max_position_m < 1e-3 and err.torso_rad < 1e-2
+
+
+def test_ik_step_time(g1_spec: RobotSpec) -> None:
+    """One G1 IK step takes less than 5 ms (a 100 Hz loop must run faster than real time)."""
+    ik = WholeBodyIk(g1_spec)
+    com, left, right = initial_state(g1_spec)
+    times = []
+    for k in range(30):
+        ik.step(double_support_reference(0.0, com + [0.0, 0.001 * k, 0.0], left, right), 0.01)
+        times.append(ik.last_solve_time_s)
+    assert np.median(times) < 5e-3
+
+
+def test_static_torques_balance_floating_base(g1_spec: RobotSpec) -> None:
+    """Static torques leave no force on the floating base and are symmetric for an even load."""
+    ik = WholeBodyIk(g1_spec)
+    torque = ik.static_torques(0.5)
+    assert np.all(torque[:6] == 0.0)
+    model = ik.model
+    knees = [model.joint(f"{s}_knee_joint").dofadr[0] for s in ("left", "right")]
+    assert torque[knees[0]] == pytest.approx(torque[knees[1]], rel=0.05)
+    assert abs(torque[knees[0]]) > 5.0  # the knees carry the bent-knee weight
+
+
+def test_actuator_map_covers_all_actuators(robot_spec: RobotSpec) -> None:
+    """Every actuator maps to its joint in the IK model; the built-ins use position servos."""
+    ik = WholeBodyIk(robot_spec)
+    amap = ActuatorMap(ik.model, ik.model)
+    assert amap.is_position.all()
+    targets = amap.targets(ik.qpos)
+    assert targets.shape == (ik.model.nu,)
+    np.testing.assert_array_equal(amap.ik_qpos_index, amap.sim_qpos_index)
+
+
+def test_ik_settings_validated() -> None:
+    """Negative weights and zero iterations raise ParameterError."""
+    with pytest.raises(ParameterError):
+        IkSettings(com_cost=-1.0)
+    with pytest.raises(ParameterError):
+        IkSettings(iterations=0)
