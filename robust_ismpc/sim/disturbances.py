@@ -3,7 +3,8 @@
 Forces (:class:`Force`, :class:`Impulse`) are written into ``data.xfrc_applied`` of a robot body
 (the torso by default) at every physics step; they act at the body's centre of mass.
 Scene objects (:class:`Payload`, :class:`SwingingBall`) are added with ``mujoco.MjSpec`` before
-compiling (:func:`build_scene`). Added bodies are named with the prefix ``disturbance_`` so
+compiling (:func:`build_scene`); their joints set damping, armature and friction loss explicitly,
+so they do not inherit the robot's joint defaults. Added bodies are named with the prefix ``disturbance_`` so
 that the robot's measured CoM excludes them.
 """
 
@@ -305,6 +306,9 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
                 name=f"{_payload_body_name(index)}_joint",
                 type=mujoco.mjtJoint.mjJNT_BALL,
                 damping=item.damping_nms,
+                armature=0.0,
+                frictionloss=0.0,
+                stiffness=0.0,
             )
             body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
@@ -329,7 +333,10 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
             if mj_spec.body(name) is not None:
                 raise ParameterError(f"two swinging balls are named {item.name!r}")
             body = mj_spec.worldbody.add_body(name=name, pos=list(item.pivot_m))
-            body.add_joint(name=f"{name}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(item.hinge_axis))
+            body.add_joint(
+                name=f"{name}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(item.hinge_axis),
+                damping=0.0, armature=0.0, frictionloss=0.0, stiffness=0.0,
+            )
             body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                 fromto=[0, 0, 0, 0, 0, -item.rope_length_m],
