@@ -127,7 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_bench.add_argument("--robot", default="g1", help="robot parameters (g1)")
     p_bench.add_argument("--horizons", default="50,100,200", help="control-horizon samples, comma-separated")
     p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
-    p_bench.add_argument("--solvers", default="daqp,osqp,proxsuite,quadprog",
+    p_bench.add_argument("--solvers", default="daqp,osqp,proxqp,quadprog",
                          help="solvers to compare on the same QPs (those installed)")
     p_bench.add_argument("--out", default=None, help="write bench.json (and bench.md) into this directory")
     return parser

@@ -1,0 +1,89 @@
+"""CLI tests: runs write well-formed outputs; bad input exits 2 with one line; no overwrite."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from robust_ismpc.cli import main
+
+BAD_RUN_ARGS = [
+    (["--robot", "nope"], "unknown robot 'nope'; built-in robots are"),
+    (["--sim", "gazebo"], "unknown simulator"),
+    (["--controller", "fancy"], "unknown controller"),
+    (["--modules", "observer,magic"], "unknown module 'magic'"),
+    (["--duration", "0"], "duration must be a finite number > 0"),
+    (["--duration", "nan"], "duration must be a finite number > 0"),
+    (["--duration", "-3"], "duration must be a finite number > 0"),
+    (["--vx", "abc"], "vx must be a number"),
+    (["--vx", "inf"], "vx must be finite"),
+    (["--force", "10"], "expected 2 comma-separated numbers"),
+    (["--force", "a,b"], "is not a list of numbers"),
+    (["--force", "10,0@3"], "the window must be T0:T1"),
+    (["--force", "10,0@3:1"], "must be after its start"),
+    (["--force", "10,0@-1:2"], "t_start_s must be >= 0"),
+    (["--push", "10,0"], "expected FX,FY@T:DUR"),
+    (["--push", "10,0@1:0"], "duration must be > 0 s"),
+    (["--push", "10,nan@1:0.1"], "values must be finite"),
+    (["--seed", "-1"], "seed must be an integer >= 0"),
+    (["--seed", "1.5"], "seed must be an integer >= 0"),
+    (["--delta-max", "-0.1"], "delta max must be a finite number >= 0"),
+]
+
+
+@pytest.mark.parametrize("extra,message", BAD_RUN_ARGS)
+def test_bad_run_input_exits_2_with_one_line(tmp_path, capsys, extra, message):
+    """Each bad value gives exit status 2 and a single stderr line naming it."""
+    with pytest.raises(SystemExit) as exc:
+        code = main(["run", "--out", str(tmp_path / "o"), "--duration", "1", *extra])
+        raise SystemExit(code)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert message in err
+    assert "Traceback" not in err
+
+
+def test_run_writes_summary_and_plot(tmp_path):
+    """`ismpc run` on the LIP writes summary.json with the documented fields, gait.png and trace.npz."""
+    out = tmp_path / "run"
+    assert main(["run", "--robot", "g1", "--vx", "0.3", "--duration", "4", "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("robot", "sim", "controller", "modules", "fell", "failure", "duration_s", "distance_m",
+                "steps_taken", "qp_infeasible_count", "max_zmp_violation_m", "mpc_solve_ms", "cycle_ms",
+                "timing_adaptations", "min_time_to_step_s", "disturbance_estimate_final"):
+        assert key in summary
+    assert summary["fell"] is False and summary["failure"] is None
+    assert set(summary["cycle_ms"]) == {"median", "p99", "max"}
+    assert summary["steps_taken"] >= 2
+    assert (out / "gait.png").stat().st_size > 10_000
+    assert (out / "trace.npz").exists()
+
+
+def test_existing_output_is_not_overwritten(tmp_path, capsys):
+    """A non-empty --out is refused without --overwrite and accepted with it."""
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["run", "--duration", "1", "--out", str(out), "--quiet"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(["run", "--duration", "1", "--out", str(out), "--quiet", "--overwrite"]) == 0
+    assert (out / "keep.txt").read_text() == "mine"
+
+
+def test_console_script_help_documents_flags():
+    """`ismpc run --help` lists every flag."""
+    out = subprocess.run([sys.executable, "-m", "robust_ismpc.cli", "run", "--help"], capture_output=True, text=True)
+    assert out.returncode == 0
+    for flag in ("--sim", "--robot", "--controller", "--modules", "--vx", "--vy", "--omega", "--duration",
+                 "--force", "--push", "--seed", "--delta-max", "--out", "--overwrite", "--video"):
+        assert flag in out.stdout
+
+
+def test_bench_writes_json(tmp_path):
+    """`ismpc bench` prints a table and writes bench.json with build/solve stats per horizon."""
+    assert main(["bench", "--horizons", "20", "--cycles", "50", "--solvers", "daqp,quadprog", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "bench.json").read_text())
+    h = data["horizons"][0]
+    assert h["C"] == 20 and h["solve_ms"]["median"] > 0 and "quadprog" in h["solvers"]
