@@ -1,10 +1,11 @@
 """Offscreen video of a MuJoCo run: frames from ``mujoco.Renderer``, mp4 through imageio.
 
 Offscreen rendering needs an OpenGL backend chosen with the ``MUJOCO_GL`` environment variable
-*before* mujoco creates a context. On a headless Linux machine ``MUJOCO_GL=egl`` works with the
-Debian packages ``libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0`` (Mesa's software
-rasteriser); :func:`configure_offscreen_gl` sets ``egl`` when nothing is set and no display is
-available. The mp4 encoder is the ffmpeg binary shipped in the ``imageio-ffmpeg`` wheel.
+*before mujoco is imported* (mujoco picks its GL context class at import). On a headless Linux
+machine ``MUJOCO_GL=egl`` works with the Debian packages
+``libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0`` (Mesa's software rasteriser);
+:mod:`robust_ismpc.robots` sets that default when it is imported before mujoco on a Linux machine
+without display. The mp4 encoder is the ffmpeg binary shipped in the ``imageio-ffmpeg`` wheel.
 """
 
 from __future__ import annotations
@@ -35,14 +36,20 @@ def configure_offscreen_gl(backend: str | None = None) -> str:
     Returns
     -------
     str
-        The backend in effect. It must be chosen before the first renderer is created.
+        The backend requested. It only takes effect if mujoco has not been imported yet; a
+        warning is logged otherwise.
     """
+    import sys
+
+    before = os.environ.get("MUJOCO_GL")
     if backend is not None:
         if backend not in ("egl", "osmesa", "glfw"):
             raise ParameterError(f"backend must be egl, osmesa or glfw, got {backend!r}")
         os.environ["MUJOCO_GL"] = backend
     elif "MUJOCO_GL" not in os.environ:
         os.environ["MUJOCO_GL"] = "glfw" if os.environ.get("DISPLAY") else "egl"
+    if os.environ["MUJOCO_GL"] != before and "mujoco" in sys.modules:
+        logger.warning("MUJOCO_GL set to %s after mujoco was imported: it has no effect", os.environ["MUJOCO_GL"])
     return os.environ["MUJOCO_GL"]
 
 
