@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.optimize
@@ -266,7 +267,7 @@ def _bounds_core(
 
 def feasibility_bounds_at(
     inputs: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray | float
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[Any, Any]:
     """Exact feasibility bounds (x_u^m, x_u^M) for given start times of the first DS ramp.
 
     Parameters
@@ -297,7 +298,7 @@ def feasibility_bounds_at(
 
 def feasibility_bounds(
     inputs: AxisFeasibilityInputs, delta_lambda: np.ndarray | float
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[Any, Any]:
     """Exact feasibility bounds as functions of Δλ = exp(−η (t_s − t_k)) ∈ (0, 1].
 
     Parameters
@@ -384,9 +385,8 @@ def _best_line_below(x: np.ndarray, y: np.ndarray, anchor: float) -> tuple[float
             else:
                 break
         hull.append((xi, yi))
-    for (x1, y1), (x2, y2) in zip(hull[:-1], hull[1:]):
-        if anchor <= x2:
-            break
+    edge = next((i for i in range(len(hull) - 1) if anchor <= hull[i + 1][0]), len(hull) - 2)
+    (x1, y1), (x2, y2) = hull[edge], hull[edge + 1]
     b = (y2 - y1) / (x2 - x1)
     a = y1 - b * x1
     # Exactly valid at every point (rounding), with a tiny safety against float noise.
@@ -524,7 +524,7 @@ def build_axis_program(inputs: AxisFeasibilityInputs, first_ramp_start_s: float)
     b_zmp_dn = half - c0[1:C + 1] + inputs.zmp_pos_m
     # Kinematic rows: lo_j <= p_j - p_{j-1} <= hi_j for decision footsteps.
     A_kin, b_kin = [], []
-    for j0 in decision:
+    for j0 in decision.tolist():
         j = j0 + 1
         row = np.concatenate((np.zeros(C), Pq[j] - Pq[j - 1]))
         off = P0[j] - P0[j - 1]
@@ -635,11 +635,11 @@ def straight_gait_inputs(
     if next_foot_sign not in (1, -1):
         raise ParameterError(f"next_foot_sign must be +1 or -1, got {next_foot_sign!r}")
     if axis == "x":
-        nominal = np.full(num_footsteps, float(step_length_m))
+        nominal: np.ndarray = np.full(num_footsteps, float(step_length_m))
         centre = np.zeros(num_footsteps)
     else:
         sides = next_foot_sign * (-1.0) ** np.arange(num_footsteps)
-        nominal = sides * foot_spacing_m
+        nominal = np.asarray(sides * foot_spacing_m, dtype=float)
         centre = nominal
     return AxisFeasibilityInputs(
         support_pos_m=support_pos_m,

@@ -251,8 +251,7 @@ def checked_restriction_rate(
     half = min(zmp_box_x_m, zmp_box_y_m) / 2
     # Largest admissible r: the box must stay non-empty, and the preview condition caps it too.
     r_cap = half / control_horizon_s
-    preview_given = preview_horizon_s is not None and max_zmp_speed_mps is not None
-    if preview_given:
+    if preview_horizon_s is not None and max_zmp_speed_mps is not None:
         _positive(preview_horizon_s=preview_horizon_s, max_zmp_speed_mps=max_zmp_speed_mps)
         if preview_horizon_s < control_horizon_s - 1e-12:
             raise ParameterError(

@@ -1,4 +1,5 @@
 """Tests of the MuJoCo layer (robust_ismpc.sim): measurements, disturbances, loop, video."""
+# ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
 
@@ -8,7 +9,6 @@ import os
 
 import numpy as np
 import pytest
-
 from mujoco_fixtures import (  # noqa: F401  (fixtures)
     ComShiftController,
     StandingController,
@@ -16,6 +16,7 @@ from mujoco_fixtures import (  # noqa: F401  (fixtures)
     op3_spec,
     robot_spec,
 )
+
 from robust_ismpc.exceptions import ModelError, ParameterError
 from robust_ismpc.robots import RobotSpec
 from robust_ismpc.sim import (

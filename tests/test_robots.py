@@ -1,4 +1,5 @@
 """Tests of robot descriptions (robust_ismpc.robots)."""
+# ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
 
@@ -6,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from mujoco_fixtures import robot_spec  # noqa: F401  (fixture; skips without mujoco)
+
 from robust_ismpc.exceptions import ModelError, ParameterError
 from robust_ismpc.robots import BUILTIN_ROBOTS, RobotSpec, load_robot
 from robust_ismpc.robots.spec import _BUILTIN_DIR

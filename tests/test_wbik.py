@@ -1,11 +1,12 @@
 """Tests of the whole-body IK (robust_ismpc.wbik)."""
+# ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from mujoco_fixtures import double_support_reference, g1_spec, robot_spec  # noqa: F401  (fixtures)
+
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.robots import RobotSpec
 from robust_ismpc.sim import initial_state

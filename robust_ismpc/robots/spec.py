@@ -14,13 +14,13 @@ import functools
 import importlib.util
 import logging
 import math
-import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
+import tomllib
 
 from ..exceptions import ModelError, ParameterError
 from ..params import ROBOT_DEFAULTS, RobotParams

@@ -4,6 +4,11 @@ This subpackage (with :mod:`robust_ismpc.wbik` and :mod:`robust_ismpc.robots`) i
 place that imports mujoco.
 """
 
+# isort: off
+from .. import robots as _robots  # noqa: F401  (sets the MUJOCO_GL default before mujoco is imported)
+
+# isort: on
+
 from .disturbances import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
 from .mujoco_loop import (
     LoopSettings,

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Union
 
 import mujoco
 import numpy as np
@@ -127,7 +126,7 @@ class Impulse:
         )
 
 
-Disturbance = Union[Force, Impulse]
+Disturbance = Force | Impulse
 
 
 class ForceSchedule:
@@ -262,7 +261,7 @@ class SwingingBall:
             raise ParameterError(f"SwingingBall.name must be an identifier, got {self.name!r}")
 
 
-SceneItem = Union[Payload, SwingingBall]
+SceneItem = Payload | SwingingBall
 
 
 def _payload_body_name(index: int) -> str:

@@ -10,6 +10,7 @@ without display. The mp4 encoder is the ffmpeg binary shipped in the ``imageio-f
 
 from __future__ import annotations
 
+import copy
 import logging
 import os
 import time
@@ -69,6 +70,9 @@ class VideoSettings:
         Tracking camera placement relative to the tracked body.
     track_body : str or None
         Body followed by the camera; None means the robot's root body.
+    shadows, reflections, multisampling : bool
+        Costly effects, off by default: with Mesa's software rasteriser a 640 x 480 G1 frame
+        renders at about 23 frames/s without them and 4 frames/s with all three.
     """
 
     path: Path
@@ -79,6 +83,9 @@ class VideoSettings:
     azimuth_deg: float = 135.0
     elevation_deg: float = -15.0
     track_body: str | None = None
+    shadows: bool = False
+    reflections: bool = False
+    multisampling: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", Path(self.path))
@@ -118,7 +125,14 @@ class VideoRecorder:
         height = min(settings.height, int(model.vis.global_.offheight))
         if (width, height) != (settings.width, settings.height):
             logger.warning("video frame size reduced to %dx%d (model offscreen buffer)", width, height)
-        self._renderer = mujoco.Renderer(model, height=height, width=width)
+        render_model = copy.deepcopy(model)  # the visual settings below must not leak into the scene
+        if not settings.multisampling:
+            render_model.vis.quality.offsamples = 0
+        if not settings.shadows:
+            render_model.vis.quality.shadowsize = 0
+        self._renderer = mujoco.Renderer(render_model, height=height, width=width)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = int(settings.shadows)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = int(settings.reflections)
         name = settings.track_body or default_track_body
         body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
         if body_id < 0:
