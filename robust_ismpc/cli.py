@@ -201,13 +201,12 @@ def cmd_run(args) -> int:
     modules = parse_modules(args.controller, args.modules)
     spec = _spec(args, modules)
     out = _prepare_out(args.out, args.overwrite)
-    result = run(spec, progress=_progress(args, spec.controller_label))
+    video = out / "video.mp4" if args.video else None
+    result = run(spec, progress=_progress(args, spec.controller_label), video_path=video)
     _end_progress(args)
     _write_run(result, out)
-    if args.video and spec.sim == "mujoco":
-        pass  # the video is written by the MuJoCo runner when requested
     print(_one_line(result.summary))
-    print(f"wrote {out / 'summary.json'}, {out / 'gait.png'}, {out / 'trace.npz'}")
+    print(f"wrote {out / 'summary.json'}, {out / 'gait.png'}, {out / 'trace.npz'}" + (f", {video}" if video else ""))
     return 0
 
 
@@ -223,9 +222,10 @@ def cmd_compare(args) -> int:
     results = {}
     for label, modules in (("nominal", ()), ("robust", robust_modules)):
         spec = _spec(args, modules)
-        results[label] = run(spec, progress=_progress(args, label))
-        _end_progress(args)
         (out / label).mkdir(exist_ok=True)
+        video = out / label / "video.mp4" if args.video else None
+        results[label] = run(spec, progress=_progress(args, label), video_path=video)
+        _end_progress(args)
         _write_run(results[label], out / label)
         print(_one_line(results[label].summary))
     comparison = {

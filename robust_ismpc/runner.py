@@ -147,12 +147,23 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
     }
 
 
-def run(spec: RunSpec, progress=None) -> RunResult:
-    """Run ``spec`` and return its summary and trace."""
+def run(spec: RunSpec, progress=None, video_path=None) -> RunResult:
+    """Run ``spec`` and return its summary and trace.
+
+    Parameters
+    ----------
+    spec : RunSpec
+    progress : callable, optional
+        ``progress(t_s)`` called about once per simulated second.
+    video_path : path, optional
+        MuJoCo only: write an mp4 of the run there.
+    """
     if spec.sim == "mujoco":
         from .sim.run import run_mujoco_spec
 
-        return run_mujoco_spec(spec, progress=progress)
+        return run_mujoco_spec(spec, progress=progress, video_path=video_path)
+    if video_path is not None:
+        raise ParameterError("--video needs --sim mujoco (the LIP has nothing to render)")
     robot = robot_params(spec.robot)
     controller = make_controller(robot, spec)
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
