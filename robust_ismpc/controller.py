@@ -159,6 +159,7 @@ class IsmpcController:
             -LEFT: SwingState.at_rest(np.asarray(right0, float), plan.yaw_rad[1]),
         }
         self.last_plan: MpcPlan | None = None
+        self.last_zmp_vel_mps = np.zeros(2)
         self.fallback_cycles = 0
         self.infeasible_count = 0
         self.info = CycleInfo()
@@ -168,18 +169,20 @@ class IsmpcController:
         if measurement is not None:
             com = np.asarray(measurement.com_pos_m, float)[:2]
             vel = np.asarray(measurement.com_vel_mps, float)[:2]
-            if not (np.all(np.isfinite(com)) and np.all(np.isfinite(vel))):
-                raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
             g = self.state_feedback_gain
             self.state[0] = (1.0 - g) * self.state[0] + g * com
             self.state[1] = (1.0 - g) * self.state[1] + g * vel
         dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
         return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
 
+    def _solve_qp(self, state: MpcState) -> MpcPlan:
+        """Solve this cycle's QP (subclasses may retry, e.g. after adapting the step timing)."""
+        return self.qp.solve(self.plan, state, self._restriction())
+
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""
         try:
-            result = self.qp.solve(self.plan, state, self._restriction())
+            result = self._solve_qp(state)
         except (InfeasibleMpc, SolverError) as exc:
             self.infeasible_count += 1
             self.fallback_cycles += 1
@@ -202,6 +205,12 @@ class IsmpcController:
         if len(result.footstep_indices):
             self.plan.pos_m[result.footstep_indices] = result.footsteps_m
         return result.zmp_vel_mps[0], result
+
+    def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
+        """Hook run first in every cycle (the robust controller updates its observer here)."""
+
+    def _adapt(self, state: MpcState) -> None:
+        """Hook run before the QP (the robust controller adapts the step timing here)."""
 
     def extra_channels(self) -> dict:
         """Trace channels produced by the robustness modules in the last cycle."""
@@ -234,10 +243,19 @@ class IsmpcController:
             raise ParameterError(f"t_s must be finite, got {t_s!r}")
         start = time.perf_counter()
         self.info.build_time_s = self.info.solve_time_s = 0.0
+        if measurement is not None:
+            values = [measurement.com_pos_m, measurement.com_vel_mps]
+            if measurement.zmp_m is not None:
+                values.append(measurement.zmp_m)
+            if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values):
+                raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
+        self._before_cycle(t_s, measurement)
         state = self._mpc_state(t_s, measurement)
+        self._adapt(state)
         self.info.dcm_m = state.dcm_m
         self.info.disturbance_mps2 = self.disturbance_mps2.copy()
         zmp_vel, _ = self._solve(state)
+        self.last_zmp_vel_mps = zmp_vel
         self.info.fallback_cycles = self.fallback_cycles
         self.state = self.lip.A @ self.state + np.outer(self.lip.B, zmp_vel) + np.outer(self.lip.E, self.disturbance_mps2)
         reference = self._reference(t_s)

@@ -378,3 +378,39 @@ def _xy(value: np.ndarray, name: str) -> np.ndarray:
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
         raise ParameterError(f"{name} must be a finite array of shape (2,), got {value!r}")
     return arr
+
+
+class PersistenceFilter:
+    r"""Keep only the persistent part of the disturbance estimate (a sliding-window erosion).
+
+    Per axis, the output is the estimate of smallest magnitude over the last ``window``
+    samples when they all have the same sign, and 0 otherwise. A disturbance shorter than the
+    window (an impulsive push) therefore never reaches the mid-range w̃, where the modified
+    stability constraint would treat it as lasting forever, while a persistent force passes
+    after one window. Pushes are the job of the step timing adaptation (spec §13).
+
+    Parameters
+    ----------
+    window : int
+        Number of samples (>= 1; 1 passes the estimate through unchanged).
+    """
+
+    def __init__(self, window: int):
+        if not isinstance(window, (int, np.integer)) or window < 1:
+            raise ParameterError(f"PersistenceFilter window must be an integer >= 1, got {window!r}")
+        self.window = int(window)
+        self._buffer = np.zeros((self.window, 2))
+        self._count = 0
+
+    def reset(self) -> None:
+        self._buffer[:] = 0.0
+        self._count = 0
+
+    def update(self, w_hat_xy: np.ndarray) -> np.ndarray:
+        """Push ŵ (x, y) [m/s²] and return its persistent part, shape (2,)."""
+        self._buffer[self._count % self.window] = _xy(w_hat_xy, "w_hat_xy")
+        self._count += 1
+        buf = self._buffer
+        same_sign = np.all(buf > 0, axis=0) | np.all(buf < 0, axis=0)
+        smallest = buf[np.argmin(np.abs(buf), axis=0), [0, 1]]
+        return np.where(same_sign, smallest, 0.0)

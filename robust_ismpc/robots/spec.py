@@ -94,6 +94,10 @@ class RobotSpec:
         Height of the root body origin when standing with both soles on the floor [m], measured.
     gait_overrides : tuple of (str, float)
         Values of :class:`~robust_ismpc.params.RobotParams` fields that replace the defaults.
+    sole_outline_m : tuple of (float, float)
+        Vertices (x, y) of the region where the sole can bear load, in the sole frame [m]
+        (convex, e.g. the contact spheres' centres); empty means the ``sole_length_m`` x
+        ``sole_width_m`` rectangle. The measured support polygon is built from it.
     """
 
     name: str
@@ -114,6 +118,7 @@ class RobotSpec:
     foot_spacing_m: float
     base_height_m: float
     gait_overrides: tuple[tuple[str, float], ...] = field(default=())
+    sole_outline_m: tuple[tuple[float, float], ...] = field(default=())
 
     def __post_init__(self) -> None:
         owner = f"RobotSpec[{self.name}]"
@@ -144,6 +149,10 @@ class RobotSpec:
                 raise ParameterError(
                     f"{owner}.standing_posture entries must be (joint name, finite angle), got {(joint, value)!r}"
                 )
+        outline = np.asarray(self.sole_outline_m, dtype=float).reshape(-1, 2) if self.sole_outline_m else np.zeros((0, 2))
+        if self.sole_outline_m and (len(outline) < 3 or not np.all(np.isfinite(outline))):
+            raise ParameterError(f"{owner}.sole_outline_m must be at least 3 finite (x, y) vertices [m]")
+        object.__setattr__(self, "sole_outline_m", tuple((float(x), float(y)) for x, y in outline))
         allowed = set(f.name for f in fields(RobotParams)) - set(MEASURED_FIELDS)
         for key, _ in self.gait_overrides:
             if key not in allowed:
@@ -155,6 +164,13 @@ class RobotSpec:
     def standing_joint_angles(self) -> dict[str, float]:
         """Standing posture as a dict joint name -> angle [rad]."""
         return dict(self.standing_posture)
+
+    def sole_outline(self) -> np.ndarray:
+        """Load-bearing region of a sole in the sole frame, shape (k, 2) [m] (the rectangle by default)."""
+        if self.sole_outline_m:
+            return np.array(self.sole_outline_m)
+        half = np.array([0.5 * self.sole_length_m, 0.5 * self.sole_width_m])
+        return np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * half
 
     def sole_offset_m(self, side: str) -> np.ndarray:
         """Sole-frame origin in the foot frame for ``side`` in (``"left"``, ``"right"``), shape (3,) [m]."""
@@ -317,7 +333,7 @@ _REQUIRED_KEYS = (
     "sole_width_m",
     "leg_joints",
 )
-_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait")
+_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m")
 
 
 def _resolve_model_path(toml_path: Path, table: dict[str, Any]) -> Path:
@@ -444,6 +460,11 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     if not isinstance(gait, dict):
         raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
     gait_overrides = tuple((str(k), float(v)) for k, v in gait.items())
+    outline_value = table.get("sole_outline_m", [])
+    try:
+        sole_outline = tuple((float(x), float(y)) for x, y in outline_value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
 
     owner = f"{toml_path.name}"
     offsets = (
@@ -473,6 +494,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
         leg_joints=tuple(leg_joints),
         standing_posture=posture,
         gait_overrides=gait_overrides,
+        sole_outline_m=sole_outline,
         **measured,
     )
     logger.info(

@@ -248,6 +248,7 @@ class MujocoRobot:
         self._is_ground = np.zeros(model.ngeom, dtype=bool)
         self._is_ground[self._ground_geoms] = True
         self._wrench = np.zeros(6)
+        self._outline = spec.sole_outline()
 
     # ------------------------------------------------------------------ kinematics
     def com(self) -> tuple[np.ndarray, np.ndarray]:
@@ -340,13 +341,18 @@ class MujocoRobot:
         )
 
     def support_polygon(self, contacts: ContactState | None = None) -> np.ndarray:
-        """Convex hull of the soles in contact, shape (k, 2) [m] (k = 0 when airborne)."""
+        """Convex hull of the soles in contact, shape (k, 2) [m] (k = 0 when airborne).
+
+        Each sole contributes its load-bearing outline (:meth:`RobotSpec.sole_outline`).
+        """
         contacts = self.contacts() if contacts is None else contacts
-        corners = [
-            sole_corners(self.sole_pose(side), self.spec.sole_length_m, self.spec.sole_width_m)
-            for side, flag in zip(SIDES, (contacts.left_in_contact, contacts.right_in_contact))
-            if flag
-        ]
+        outline = self._outline
+        corners = []
+        for side, flag in zip(SIDES, (contacts.left_in_contact, contacts.right_in_contact)):
+            if flag:
+                pose = self.sole_pose(side)
+                c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+                corners.append(pose.pos_m[:2] + outline @ np.array([[c, s], [-s, c]]))
         if not corners:
             return np.zeros((0, 2))
         return convex_hull(np.vstack(corners))

@@ -1,0 +1,292 @@
+"""Robust IS-MPC: nominal IS-MPC plus any subset of the three robustness modules (spec §11-§14).
+
+* ``observer``: a disturbance observer on the LIP extended with a constant disturbance
+  (:mod:`robust_ismpc.observer`) estimates ŵ from the measured CoM and ZMP (centre of pressure);
+  a mid-range filter saturates and rate-limits it into w̃, which enters the stability constraint
+  through the shifted DCM x̄_u = x_u + w̃/η² and the reference integration (+E_d w̃).
+* ``restriction``: the ZMP boxes of the horizon shrink by R_i = r (i+1) δ, with r computed from
+  the deviation bound Δmax (:mod:`robust_ismpc.restriction`).
+* ``timing``: before the QP, the feasibility region of the shifted DCM is computed as a function
+  of the current step's touchdown time; if the DCM is near or beyond it, QP-STA chooses a new
+  touchdown (:mod:`robust_ismpc.step_timing`), the plan is re-timed (later steps shift, the
+  anticipative tail and the swing foot follow). An infeasible QP also triggers an adaptation
+  attempt before the fallback of :class:`~robust_ismpc.controller.IsmpcController`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .controller import IsmpcController
+from .exceptions import InfeasibleMpc, ParameterError
+from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at
+from .mpc import MpcPlan, MpcState
+from .observer import DisturbanceObserver, MidrangeFilter, MidrangeParams, ObserverParams, PersistenceFilter
+from .params import MpcParams, RobotParams
+from .planner import rotation
+from .qp import QpSolver
+from .reference import Measurement
+from .restriction import checked_restriction_rate, max_tolerable_deviation, restriction_profile
+from .step_timing import StaParams, should_adapt, solve_sta
+
+MODULES = ("observer", "restriction", "timing")
+
+
+@dataclass(frozen=True)
+class RobustParams:
+    """Settings of the robustness modules.
+
+    Attributes
+    ----------
+    delta_max_mps2 : float or None
+        Δmax, the deviation of the disturbance from its mid-range that the ZMP restriction
+        guarantees [m/s²]. None: ``delta_max_fraction`` of the largest value the foot and horizon
+        can guarantee.
+    delta_max_fraction : float
+        Used when ``delta_max_mps2`` is None, in (0, 1).
+    observer_poles : tuple of float
+        Discrete poles of the (CoM, CoM velocity, disturbance) estimation error.
+    observer_zmp_pole : float
+        Discrete pole of the ZMP estimation error.
+    persistence_s : float
+        Only the part of the estimate that persisted this long with one sign becomes mid-range
+        (see :class:`~robust_ismpc.observer.PersistenceFilter`) [s]: impulsive pushes are left to
+        the step timing adaptation instead of being compensated as if they lasted forever.
+    midrange_rate_mps3 : float
+        Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
+        restriction's guarantee holds while w̃ is steady.
+    sta : StaParams or None
+        Step timing adaptation settings; None: defaults with the safety margin set to a quarter
+        of the smaller ZMP box side (a 2 cm margin does not fit a 3-4 cm box).
+    """
+
+    delta_max_mps2: float | None = None
+    delta_max_fraction: float = 0.5
+    observer_poles: tuple[float, float, float] = (0.6, 0.7, 0.8)
+    observer_zmp_pole: float = 0.5
+    persistence_s: float = 0.25
+    midrange_rate_mps3: float = 10.0
+    sta: StaParams | None = None
+
+    def __post_init__(self) -> None:
+        if self.delta_max_mps2 is not None and not (
+            isinstance(self.delta_max_mps2, (int, float)) and math.isfinite(self.delta_max_mps2) and self.delta_max_mps2 >= 0
+        ):
+            raise ParameterError(f"RobustParams.delta_max_mps2 must be a finite number >= 0, got {self.delta_max_mps2!r}")
+        if not (isinstance(self.delta_max_fraction, (int, float)) and 0 < self.delta_max_fraction < 1):
+            raise ParameterError(f"RobustParams.delta_max_fraction must be in (0, 1), got {self.delta_max_fraction!r}")
+        if not (isinstance(self.persistence_s, (int, float)) and math.isfinite(self.persistence_s)
+                and self.persistence_s >= 0):
+            raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
+        if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
+                and self.midrange_rate_mps3 > 0):
+            raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
+
+
+@dataclass
+class _TimingRecord:
+    adaptations: int = 0
+    min_time_to_step_s: float = math.inf
+    adapted_this_cycle: bool = False
+    bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
+
+
+class RobustIsmpcController(IsmpcController):
+    """IS-MPC with the observer, restriction and timing modules selectable.
+
+    Parameters
+    ----------
+    robot : RobotParams
+    mpc : MpcParams, optional
+    modules : sequence of str
+        Any subset of ``observer``, ``restriction``, ``timing``.
+    delta_max_mps2 : float, optional
+        Overrides ``params.delta_max_mps2``.
+    state_feedback_gain : float
+        See :class:`~robust_ismpc.controller.IsmpcController`.
+    solver : QpSolver, optional
+    params : RobustParams, optional
+
+    Raises
+    ------
+    ParameterError
+        For unknown modules, or a Δmax that the restriction cannot guarantee with this foot and
+        horizon (the message gives the largest one that can be).
+    """
+
+    def __init__(
+        self,
+        robot: RobotParams,
+        mpc: MpcParams | None = None,
+        modules=MODULES,
+        delta_max_mps2: float | None = None,
+        state_feedback_gain: float = 1.0,
+        solver: QpSolver | None = None,
+        params: RobustParams | None = None,
+    ):
+        super().__init__(robot, mpc, state_feedback_gain=state_feedback_gain, solver=solver)
+        modules = tuple(modules)
+        unknown = [m for m in modules if m not in MODULES]
+        if unknown:
+            raise ParameterError(f"unknown module {unknown[0]!r}; modules are: {', '.join(MODULES)}")
+        self.modules = frozenset(modules)
+        params = params if params is not None else RobustParams()
+        if delta_max_mps2 is not None:
+            params = replace(params, delta_max_mps2=delta_max_mps2)
+        self.robust_params = params
+        mpc_p = self.mpc_params
+        box = min(robot.zmp_box_x_m, robot.zmp_box_y_m)
+        self.restriction_rate_mps = 0.0
+        self.delta_max_mps2 = 0.0
+        self._restriction_m: np.ndarray | None = None
+        if "restriction" in self.modules:
+            dmax = params.delta_max_mps2
+            if dmax is None:
+                dmax = params.delta_max_fraction * max_tolerable_deviation(
+                    box, self.eta, self.dt, mpc_p.control_horizon_s
+                )
+            reach = math.hypot(0.5 * robot.kin_box_x_m, robot.foot_spacing_m + 0.5 * robot.kin_box_y_m)
+            self.restriction_rate_mps = checked_restriction_rate(
+                dmax, self.eta, self.dt, mpc_p.control_horizon_s, robot.zmp_box_x_m, robot.zmp_box_y_m,
+                preview_horizon_s=mpc_p.preview_horizon_s, max_zmp_speed_mps=reach / robot.T_ds_s,
+            )
+            self.delta_max_mps2 = float(dmax)
+            self._restriction_m = restriction_profile(self.restriction_rate_mps, self.dt, mpc_p.C)
+        self.sta_params = params.sta if params.sta is not None else StaParams(margin_m=box / 4)
+        self.observer: DisturbanceObserver | None = None
+        self.midrange: MidrangeFilter | None = None
+        if "observer" in self.modules:
+            self.observer = DisturbanceObserver(ObserverParams(
+                com_height_m=robot.com_height_m, sampling_period_s=self.dt,
+                poles=params.observer_poles, zmp_pole=params.observer_zmp_pole,
+            ))
+            self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
+            self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
+        self.timing = _TimingRecord()
+
+    # ------------------------------------------------------------------------------------
+    def reset(self, plan, com_pos_m, com_vel_mps=None, left_foot_m=None, right_foot_m=None, t_s: float = 0.0) -> None:
+        super().reset(plan, com_pos_m, com_vel_mps, left_foot_m, right_foot_m, t_s)
+        self.nominal_T_ss_s = plan.T_ss_s.copy()
+        self.timing = _TimingRecord()
+        if self.observer is not None:
+            self.observer.reset(self.state[0], self.state[1], self.state[2])
+            self.midrange.reset(0.0)
+            self.persistence.reset()
+
+    @property
+    def timing_adaptations(self) -> int:
+        """Number of cycles in which the step timing was changed."""
+        return self.timing.adaptations
+
+    def _restriction(self) -> np.ndarray | None:
+        return self._restriction_m
+
+    def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
+        if self.observer is None or measurement is None:
+            return
+        zmp = None if measurement.zmp_m is None else np.asarray(measurement.zmp_m, float)[:2]
+        w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
+        self.disturbance_estimate_mps2 = w_hat
+        self.disturbance_mps2 = self.midrange.update(self.persistence.update(w_hat))
+
+    # ------------------------------------------------------------------------------------
+    def feasibility_inputs(self, t_s: float, j: int, state: MpcState):
+        """Per-axis feasibility inputs in the frame of the current support footstep j-1.
+
+        Returns
+        -------
+        inputs_x, inputs_y : AxisFeasibilityInputs
+        rotation_m : ndarray, shape (2, 2)
+            Support-frame axes in the world (local = Rᵀ (world - origin)).
+        origin_m : ndarray, shape (2,)
+            Support footstep position [m].
+        """
+        plan, robot, mpc = self.plan, self.robot, self.mpc_params
+        origin = plan.pos_m[j - 1]
+        R = rotation(plan.yaw_rad[j - 1])
+        td = plan.touchdown_s
+        n = max(1, int(np.count_nonzero(td[j:] < t_s + mpc.preview_horizon_s - 1e-9)))
+        idx = np.arange(j, min(j + n, plan.n_footsteps))
+        candidates = (plan.candidate_pos_m[idx] - origin) @ R  # rows Rᵀ(p - origin)
+        nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
+        sides = plan.side[idx].astype(float)
+        zmp_local = R.T @ (state.zmp_m - origin)
+        periods = np.diff(td[idx])
+        common = dict(
+            support_pos_m=0.0, restriction_rate_mps=self.restriction_rate_mps, T_ds_s=float(plan.T_ds_s[j]),
+            step_periods_s=periods, eta=self.eta, sampling_period_s=self.dt,
+            control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
+        )
+        half_x = np.full(len(idx), 0.5 * robot.kin_box_x_m)
+        inputs_x = AxisFeasibilityInputs(
+            zmp_pos_m=float(zmp_local[0]), zmp_half_width_m=0.5 * robot.zmp_box_x_m,
+            disp_lo_m=-half_x, disp_hi_m=half_x, disp_nominal_m=nominal[:, 0], **common,
+        )
+        inputs_y = AxisFeasibilityInputs(
+            zmp_pos_m=float(zmp_local[1]), zmp_half_width_m=0.5 * robot.zmp_box_y_m,
+            disp_lo_m=sides * robot.foot_spacing_m - 0.5 * robot.kin_box_y_m,
+            disp_hi_m=sides * robot.foot_spacing_m + 0.5 * robot.kin_box_y_m,
+            disp_nominal_m=nominal[:, 1], **common,
+        )
+        return inputs_x, inputs_y, R, origin
+
+    def _adapt_timing(self, state: MpcState, qp_infeasible: bool = False) -> bool:
+        """Check feasibility and adapt the current touchdown if needed; True if it changed."""
+        plan, t = self.plan, state.t_s
+        j = plan.step_at(t)
+        touchdown = plan.touchdown_s[j]
+        if j < 2 or t >= touchdown - 1e-9:
+            self.timing.bounds_world_m = np.full(4, np.nan)
+            return False
+        inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state)
+        dcm_local = R.T @ (state.dcm_m - origin)
+        remaining = touchdown - t
+        bx = feasibility_bounds_at(inputs_x, remaining)
+        by = feasibility_bounds_at(inputs_y, remaining)
+        if abs(plan.yaw_rad[j - 1]) < 1e-12:
+            self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
+        else:
+            self.timing.bounds_world_m = np.full(4, np.nan)
+        if not should_adapt(
+            dcm_local, (float(bx[0]), float(bx[1])), (float(by[0]), float(by[1])), self.sta_params.margin_m,
+            in_single_support=True, time_to_touchdown_s=remaining, freeze_s=self.sta_params.freeze_s,
+            qp_infeasible=qp_infeasible,
+        ):
+            return False
+        result = solve_sta(
+            t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]), dcm_local, inputs_x, inputs_y,
+            self.sta_params,
+        )
+        if not result.changed:
+            return False
+        plan.retime_touchdown(j, result.touchdown_time_s)
+        self.timing.adaptations += 1
+        self.timing.adapted_this_cycle = True
+        self.timing.min_time_to_step_s = min(self.timing.min_time_to_step_s, result.time_to_touchdown_s)
+        self._log.warning(
+            "sta", t, f"step timing adapted: touchdown in {result.time_to_touchdown_s:.2f} s (was {remaining:.2f} s)"
+        )
+        return True
+
+    def _adapt(self, state: MpcState) -> None:
+        self.timing.adapted_this_cycle = False
+        if "timing" in self.modules:
+            self._adapt_timing(state)
+
+    def _solve_qp(self, state: MpcState) -> MpcPlan:
+        try:
+            return super()._solve_qp(state)
+        except InfeasibleMpc:
+            if "timing" in self.modules and self._adapt_timing(state, qp_infeasible=True):
+                return super()._solve_qp(state)
+            raise
+
+    def extra_channels(self) -> dict:
+        return {
+            "feasibility_m": self.timing.bounds_world_m,
+            "timing_adapted": float(self.timing.adapted_this_cycle),
+        }

@@ -1,0 +1,344 @@
+"""A :class:`~robust_ismpc.runner.RunSpec` on a full robot in MuJoCo (``ismpc run --sim mujoco``).
+
+:func:`run_mujoco_spec` builds the robot scene, the footstep plan from the robot's real initial
+soles, the controller (nominal or robust, through :func:`robust_ismpc.runner.make_controller`) and
+runs the closed loop
+
+    measure (CoM, soles, contact CoP) -> controller.step -> whole-body IK -> servos -> physics
+
+once per MPC period, recording the same trace channels as the LIP simulation
+(:func:`robust_ismpc.lip_sim.run_lip`) so that ``report``, ``plotting`` and the CLI treat both
+simulators alike. On the full robot the channels mean:
+
+- ``com_m``, ``com_vel_mps``: measured whole-body CoM (x, y);
+- ``zmp_m``: measured centre of pressure of the foot contact forces (NaN without contact);
+- ``zmp_violation_m``: distance of the measured CoP outside the support polygon (convex hull of
+  the soles in contact), 0 inside, NaN in flight;
+- ``left_foot_m``, ``right_foot_m``: reference soles from the controller (as on the LIP);
+- ``disturbance_true_mps2``: the applied external force divided by the simulated mass.
+
+The per-robot closed-loop settings that are not reduced-model parameters (state feedback gain,
+IK weights, torso pitch, contact threshold) are :data:`WALK_SETTINGS`; the gait timing, ZMP box
+and swing height are the ``[gait]`` table of the robot TOML files (``docs/robots.md``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..exceptions import ControllerFailure, ParameterError, SolverError
+from ..planner import plan_footsteps
+from ..reference import Support
+from ..report import summarize
+from ..robots.spec import BUILTIN_ROBOTS, load_robot
+from ..runner import RunResult, RunSpec, make_controller, run_meta
+from ..trace import TraceRecorder
+from ..wbik import IkSettings
+from .disturbances import Force
+from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
+from .mujoco_robot import FallCriteria, distance_outside
+from .video import VideoRecorder, VideoSettings
+
+logger = logging.getLogger("robust_ismpc")
+
+#: Distance outside the support polygon below which the CoP counts as inside [m]: the contact
+#: points of spheres or box edges move by about this much when a foot tilts slightly.
+COP_TOLERANCE_M = 1e-3
+
+_SUPPORT_CODE = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}
+
+
+@dataclass(frozen=True)
+class WalkSettings:
+    """Closed-loop settings of one robot walking in MuJoCo.
+
+    Attributes
+    ----------
+    state_feedback_gain : float
+        Blend of the measured CoM into the MPC state each cycle, in [0, 1] (see
+        :class:`~robust_ismpc.controller.IsmpcController`). 0 by default: with position servos
+        the robot realises CoM *positions*; a measured state that lags the one-tick prediction
+        resets the model's velocity every tick, the reference CoM stops moving while the ZMP
+        runs to the box edge, and the QP turns infeasible within 1-3 s (G1 and OP3 with gains
+        0.02 to 1, before the first step). Feedback goes through :class:`ComStabilizer`.
+    com_feedback_gain : float
+        K of :class:`ComStabilizer` (CoM error relative to the stance sole) [-].
+    com_feedback_damping_s : float
+        D of :class:`ComStabilizer` (CoM velocity error) [s].
+    ik : IkSettings
+        Whole-body IK weights.
+    fall : FallCriteria
+        When the robot counts as fallen.
+    """
+
+    state_feedback_gain: float = 0.0
+    com_feedback_gain: float = 1.0
+    com_feedback_damping_s: float = 0.05
+    ik: IkSettings = field(default_factory=IkSettings)
+    fall: FallCriteria = field(default_factory=FallCriteria)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.state_feedback_gain, (int, float)) and 0.0 <= self.state_feedback_gain <= 1.0):
+            raise ParameterError(
+                f"WalkSettings.state_feedback_gain must be in [0, 1], got {self.state_feedback_gain!r}"
+            )
+
+
+#: Per-robot closed-loop settings (tuned; see docs/robots.md "Walking in MuJoCo").
+WALK_SETTINGS: dict[str, WalkSettings] = {
+    "g1": WalkSettings(),
+    "op3": WalkSettings(),
+}
+
+
+@dataclass(frozen=True)
+class TickTimes:
+    """Wall-clock time spent per phase over a run [s]."""
+
+    measure_s: float = 0.0
+    controller_s: float = 0.0
+    ik_s: float = 0.0
+    physics_s: float = 0.0
+    record_s: float = 0.0
+    render_s: float = 0.0
+
+    def per_tick_ms(self, ticks: int) -> dict[str, float]:
+        """Mean milliseconds per control tick of each phase."""
+        n = max(ticks, 1)
+        return {
+            "measure": round(1e3 * self.measure_s / n, 4),
+            "controller": round(1e3 * self.controller_s / n, 4),
+            "ik": round(1e3 * self.ik_s / n, 4),
+            "physics": round(1e3 * self.physics_s / n, 4),
+            "record": round(1e3 * self.record_s / n, 4),
+            "render": round(1e3 * self.render_s / n, 4),
+        }
+
+
+def walk_settings(robot: str) -> WalkSettings:
+    """Closed-loop settings of a built-in robot (defaults for others)."""
+    return WALK_SETTINGS.get(robot, WalkSettings())
+
+
+class ComStabilizer:
+    """CoM feedback relative to the stance foot, applied to the IK CoM target.
+
+    The IK reference configuration realises the reference CoM relative to the reference
+    soles; on the real robot the stance foot rolls, the servos give and the feet slip, so the
+    measured CoM relative to the *measured* stance sole drifts from the reference one. With
+    ``e`` that error (position) and ``ė`` its rate, the IK receives the CoM target
+    ``c_ref - K e - D ė``.
+    """
+
+    def __init__(self, robot, gain: float, damping_s: float) -> None:
+        self.robot = robot
+        self.gain = gain
+        self.damping_s = damping_s
+        self.previous = None
+
+    def _anchor(self, reference, measured: bool) -> np.ndarray:
+        """Mean of the feet in contact in ``reference``: measured soles or reference soles."""
+        feet = []
+        for side, foot in (("left", reference.left_foot), ("right", reference.right_foot)):
+            if foot.in_contact:
+                feet.append(self.robot.sole_pose(side).pos_m[:2] if measured else foot.pos_m[:2])
+        return np.mean(feet, axis=0)
+
+    def command(self, reference, measurement):
+        """IK reference for this tick: ``reference`` with the corrected CoM target."""
+        previous, self.previous = self.previous, reference
+        if previous is None:
+            return reference
+        error = (measurement.com_pos_m[:2] - self._anchor(previous, True)) - (
+            previous.com_pos_m[:2] - self._anchor(previous, False)
+        )
+        rate = measurement.com_vel_mps[:2] - previous.com_vel_mps[:2]
+        shift = -self.gain * error - self.damping_s * rate
+        com = reference.com_pos_m.copy()
+        com[:2] += shift
+        return replace(reference, com_pos_m=com)
+
+
+def starting_command(command, params, ramp_steps: float = 2.0):
+    """``command`` held at zero while the robot stands, then ramped up over ``ramp_steps`` steps.
+
+    :func:`~robust_ismpc.planner.plan_footsteps` integrates the command from t = 0 and samples
+    it at touchdowns, so with a constant command the first step would cover the initial stand
+    and double support too (G1 at 0.2 m/s: a 0.23 m first step instead of 0.14 m), which the
+    full robot does not survive. Zero until one step before the first touchdown, then a linear
+    ramp: the first steps are short, as when a person starts walking.
+    """
+    t_stand = 2.0 * params.T_step_s  # plan_footsteps' defaults
+    t_walk = t_stand + params.T_step_s + params.T_ss_s - params.T_step_s
+    ramp_s = ramp_steps * params.T_step_s
+
+    def ramped(t_s: float) -> tuple[float, float, float]:
+        scale = min(max((t_s - t_walk) / ramp_s, 0.0), 1.0) if ramp_s > 0 else float(t_s >= t_walk)
+        vx, vy, omega = command(t_s)
+        return (scale * vx, scale * vy, scale * omega)
+
+    return ramped
+
+
+def _check_robot(name: str) -> None:
+    if name not in BUILTIN_ROBOTS:
+        raise ParameterError(
+            f"robot {name!r} has no MuJoCo model; robots available with --sim mujoco: {', '.join(BUILTIN_ROBOTS)}"
+        )
+
+
+def run_mujoco_spec(
+    spec: RunSpec,
+    progress=None,
+    video_path=None,
+    settings: WalkSettings | None = None,
+) -> RunResult:
+    """Run ``spec`` on the full robot in MuJoCo and return its summary and trace.
+
+    Parameters
+    ----------
+    spec : RunSpec
+        The run (``spec.sim`` is ignored: this is the MuJoCo runner).
+    progress : callable, optional
+        ``progress(t_s)`` called about once per simulated second.
+    video_path : path, optional
+        Write an mp4 of the run there (offscreen rendering, see :mod:`robust_ismpc.sim.video`).
+    settings : WalkSettings, optional
+        Closed-loop settings (default: :data:`WALK_SETTINGS` of the robot).
+
+    Returns
+    -------
+    RunResult
+        ``summary`` (``report.summarize`` plus ``time_per_tick_ms``, the wall time per phase,
+        ``cop_outside_s``, the time the measured CoP spent more than :data:`COP_TOLERANCE_M`
+        outside the support polygon, and
+        ``render_fps`` with a video) and the trace.
+
+    Raises
+    ------
+    ParameterError
+        The robot has no MuJoCo model.
+    """
+    _check_robot(spec.robot)
+    settings = settings if settings is not None else walk_settings(spec.robot)
+    robot_spec = load_robot(spec.robot)
+    params = robot_spec.params()
+    dt = spec.mpc.sampling_period_s
+
+    com0, left0, right0 = initial_state(robot_spec)
+    yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
+    plan = plan_footsteps(
+        params, starting_command(spec.command, params), spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
+        left0.pos_m[:2], right0.pos_m[:2], yaw0,
+    )
+    controller = make_controller(params, spec, state_feedback_gain=settings.state_feedback_gain)
+    controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
+
+    forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
+    loop = LoopSettings(control_period_s=dt, ik=settings.ik, fall=settings.fall)
+    sim = MujocoSimulation(robot_spec, disturbances=forces, settings=loop)
+    mass = sim.robot.mass_kg
+    robot = sim.robot
+
+    n_ticks = int(math.floor(spec.duration_s / dt + 1e-9))
+    stabilizer = None
+    if settings.com_feedback_gain > 0 or settings.com_feedback_damping_s > 0:
+        stabilizer = ComStabilizer(robot, settings.com_feedback_gain, settings.com_feedback_damping_s)
+    recorder = TraceRecorder(n_ticks + 2)
+    video = None
+    if video_path is not None:
+        video = VideoRecorder(sim.model, VideoSettings(path=video_path), robot_spec.root_body)
+    failure: str | None = None
+    fell = False
+    t_meas = t_ctrl = t_ik = t_phys = t_rec = t_render = 0.0
+    outside_ticks = 0
+    progress_every = max(1, int(round(1.0 / dt)))
+    t_s = 0.0
+    ticks = 0
+    wall_start = time.perf_counter()
+    try:
+        for k in range(n_ticks):
+            t_s = k * dt
+            a = time.perf_counter()
+            measurement, contacts = robot.measure()
+            polygon = robot.support_polygon(contacts)
+            violation = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)
+            b = time.perf_counter()
+            try:
+                reference = controller.step(t_s, measurement)
+            except ControllerFailure as exc:
+                failure = f"qp_infeasible: {exc}"
+                break
+            c = time.perf_counter()
+            command = stabilizer.command(reference, measurement) if stabilizer is not None else reference
+            try:
+                sim.command(command)
+            except SolverError as exc:
+                failure = f"ik_failed: {exc}"
+                break
+            d = time.perf_counter()
+            force, render_s = sim.advance(video)
+            e = time.perf_counter()
+
+            info = controller.info
+            centre = plan.centre(np.array([t_s]))[0]
+            yaw = float(plan.centre_yaw(np.array([t_s]))[0])
+            zmp = measurement.zmp_m if measurement.zmp_m is not None else np.full(2, np.nan)
+            if violation > COP_TOLERANCE_M:
+                outside_ticks += 1
+            recorder.record(
+                t_s=t_s, com_m=measurement.com_pos_m[:2], com_vel_mps=measurement.com_vel_mps[:2], zmp_m=zmp,
+                zmp_ref_m=reference.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_yaw_rad=yaw,
+                zmp_violation_m=violation, left_foot_m=reference.left_foot.pos_m,
+                right_foot_m=reference.right_foot.pos_m, support=_SUPPORT_CODE[reference.support],
+                step_index=reference.step_index, time_to_step_s=reference.time_to_step_s,
+                disturbance_true_mps2=force[:2] / mass, disturbance_est_mps2=info.disturbance_mps2,
+                infeasible=float(info.infeasible), build_ms=1e3 * info.build_time_s,
+                solve_ms=1e3 * info.solve_time_s, cycle_ms=1e3 * info.cycle_time_s,
+                **controller.extra_channels(),
+            )
+            f = time.perf_counter()
+            t_meas += b - a
+            t_ctrl += c - b
+            t_ik += d - c
+            t_phys += e - d - render_s
+            t_render += render_s
+            t_rec += f - e
+            ticks = k + 1
+            if sim.has_fallen():
+                fell = True
+                failure = (
+                    f"fell: root at {robot.root_height_m():.3f} m, torso tilt "
+                    f"{math.degrees(robot.torso_tilt_rad()):.0f} deg at t = {sim.data.time:.2f} s"
+                )
+                break
+            if progress is not None and k % progress_every == 0:
+                progress(t_s)
+    finally:
+        if video is not None:
+            video.close()
+    wall = time.perf_counter() - wall_start
+    duration = float(sim.data.time)
+    fell = fell or failure is not None
+    meta = run_meta(spec, params)
+    meta["fell"] = fell
+    meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
+    meta["mass_kg"] = mass
+    trace = recorder.finish(controller.plan, meta)
+    summary = summarize(trace, fell, failure, duration, wall)
+    times = TickTimes(t_meas, t_ctrl, t_ik, t_phys, t_rec, t_render)
+    summary["time_per_tick_ms"] = times.per_tick_ms(ticks)
+    summary["cop_outside_s"] = round(outside_ticks * dt, 4)
+    summary["state_feedback_gain"] = settings.state_feedback_gain
+    if video is not None:
+        summary["render_fps"] = round(video.frames_per_second, 2)
+        summary["video_frames"] = video.frame_count
+    return RunResult(summary=summary, trace=trace)
+
+
+__all__ = ["COP_TOLERANCE_M", "ComStabilizer", "TickTimes", "WALK_SETTINGS", "WalkSettings", "run_mujoco_spec", "walk_settings"]
