@@ -88,11 +88,18 @@ class IsmpcController:
     mpc : MpcParams, optional
         MPC settings (defaults).
     state_feedback_gain : float
-        Blend of the measured CoM into the MPC state each cycle, in [0, 1]: 1 uses the
+        Blend of the measured CoM position into the MPC state each cycle, in [0, 1]: 1 uses the
         measurement as is (LIP simulation), smaller values filter it through the internal model
         (full robot, spec §19 pitfall 13).
     solver : QpSolver, optional
         QP solver (defaults to ``mpc.solver``).
+    velocity_feedback_gain : float, optional
+        Same for the measured CoM velocity (default: ``state_feedback_gain``). On a
+        position-controlled robot the measured velocity lags the reference; feeding back the
+        position only (velocity gain 0) avoids stalling the internal model.
+    anchor_landed_footsteps : bool
+        When the measurement carries sole positions, a footstep that has just landed is moved
+        to where the foot actually is (default True), so the ZMP boxes follow the real feet.
     """
 
     def __init__(
@@ -101,9 +108,14 @@ class IsmpcController:
         mpc: MpcParams | None = None,
         state_feedback_gain: float = 1.0,
         solver: QpSolver | None = None,
+        velocity_feedback_gain: float | None = None,
+        anchor_landed_footsteps: bool = True,
     ):
-        if not (isinstance(state_feedback_gain, (int, float)) and 0.0 <= state_feedback_gain <= 1.0):
-            raise ParameterError(f"state_feedback_gain must be in [0, 1], got {state_feedback_gain!r}")
+        if velocity_feedback_gain is None:
+            velocity_feedback_gain = state_feedback_gain
+        for name, gain in (("state_feedback_gain", state_feedback_gain), ("velocity_feedback_gain", velocity_feedback_gain)):
+            if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
+                raise ParameterError(f"{name} must be in [0, 1], got {gain!r}")
         self.robot = robot
         self.mpc_params = mpc if mpc is not None else MpcParams()
         self.qp = IsmpcQp(robot, self.mpc_params, solver)
@@ -111,6 +123,8 @@ class IsmpcController:
         self.dt = self.mpc_params.sampling_period_s
         self.lip = discretise(self.eta, self.dt)
         self.state_feedback_gain = float(state_feedback_gain)
+        self.velocity_feedback_gain = float(velocity_feedback_gain)
+        self.anchor_landed_footsteps = bool(anchor_landed_footsteps)
         self.modules: frozenset[str] = frozenset()
         self.info = CycleInfo()
         self._log = _RateLimitedLog()
@@ -160,6 +174,7 @@ class IsmpcController:
         }
         self.last_plan: MpcPlan | None = None
         self.last_zmp_vel_mps = np.zeros(2)
+        self._anchored_step = 1
         self.fallback_cycles = 0
         self.infeasible_count = 0
         self.info = CycleInfo()
@@ -169,9 +184,9 @@ class IsmpcController:
         if measurement is not None:
             com = np.asarray(measurement.com_pos_m, float)[:2]
             vel = np.asarray(measurement.com_vel_mps, float)[:2]
-            g = self.state_feedback_gain
+            g, gv = self.state_feedback_gain, self.velocity_feedback_gain
             self.state[0] = (1.0 - g) * self.state[0] + g * com
-            self.state[1] = (1.0 - g) * self.state[1] + g * vel
+            self.state[1] = (1.0 - gv) * self.state[1] + gv * vel
         dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
         return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
 
@@ -205,6 +220,19 @@ class IsmpcController:
         if len(result.footstep_indices):
             self.plan.pos_m[result.footstep_indices] = result.footsteps_m
         return result.zmp_vel_mps[0], result
+
+    def _anchor_landed(self, t_s: float, measurement: Measurement | None) -> None:
+        """Place the footstep that has just landed at the measured sole (once per step)."""
+        plan = self.plan
+        j = plan.step_at(t_s)
+        if j < 2 or j <= self._anchored_step or t_s < plan.touchdown_s[j] - 1e-9:
+            return
+        self._anchored_step = j
+        if not self.anchor_landed_footsteps or measurement is None:
+            return
+        sole = measurement.left_sole_m if plan.side[j] == LEFT else measurement.right_sole_m
+        if sole is not None:
+            plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
         """Hook run first in every cycle (the robust controller updates its observer here)."""
@@ -249,6 +277,7 @@ class IsmpcController:
                 values.append(measurement.zmp_m)
             if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values):
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
+        self._anchor_landed(t_s, measurement)
         self._before_cycle(t_s, measurement)
         state = self._mpc_state(t_s, measurement)
         self._adapt(state)

@@ -44,6 +44,11 @@ class FootstepPlan:
         Start time of step j [s] (entry 0 unused, -inf).
     T_ss_s, T_ds_s : ndarray, shape (N,)
         Single/double support durations of step j [s] (entry 0 unused).
+    box_half_m : ndarray, shape (N, 2)
+        Half sides of the ZMP box on each footstep, in the footstep frame [m]. Real footsteps
+        use the robot's ZMP box; the virtual initial footstep uses the hull of the two initial
+        ZMP boxes (the robot stands in double support there). In double support the half sides
+        are interpolated like the centre, which keeps the box inside the hull of the two feet.
     """
 
     pos_m: np.ndarray
@@ -53,12 +58,13 @@ class FootstepPlan:
     ss_start_s: np.ndarray
     T_ss_s: np.ndarray
     T_ds_s: np.ndarray
+    box_half_m: np.ndarray
 
     def __post_init__(self) -> None:
         n = len(self.yaw_rad)
         if n < 2:
             raise ParameterError("a footstep plan needs the virtual footstep and at least one foot")
-        for name in ("pos_m", "candidate_pos_m"):
+        for name in ("pos_m", "candidate_pos_m", "box_half_m"):
             arr = getattr(self, name)
             if arr.shape != (n, 2):
                 raise ParameterError(f"FootstepPlan.{name} must have shape ({n}, 2), got {arr.shape}")
@@ -69,6 +75,8 @@ class FootstepPlan:
             raise ParameterError("FootstepPlan durations must be > 0 (step 1 may have T_ss = 0)")
         if not np.all(np.isfinite(self.pos_m)) or not np.all(np.isfinite(self.yaw_rad)):
             raise ParameterError("FootstepPlan positions and yaws must be finite")
+        if not np.all(self.box_half_m > 0):
+            raise ParameterError("FootstepPlan.box_half_m must be > 0")
         self._check_chained()
 
     def _check_chained(self) -> None:
@@ -158,6 +166,11 @@ class FootstepPlan:
         pos = self.pos_m if positions is None else positions
         lo, alpha = self.centre_weights(np.asarray(times_s, dtype=float))
         return (1.0 - alpha)[:, None] * pos[lo] + alpha[:, None] * pos[lo + 1]
+
+    def box_half(self, times_s: np.ndarray) -> np.ndarray:
+        """Half sides of the ZMP box at each time, interpolated like the centre [m], shape (M, 2)."""
+        lo, alpha = self.centre_weights(np.asarray(times_s, dtype=float))
+        return (1.0 - alpha)[:, None] * self.box_half_m[lo] + alpha[:, None] * self.box_half_m[lo + 1]
 
     def centre_yaw(self, times_s: np.ndarray) -> np.ndarray:
         """Yaw of the ZMP box at each time, interpolated like the centre [rad], shape (M,)."""

@@ -84,7 +84,6 @@ def run_lip(
     dt = controller.dt
     disc = discretise(robot.eta, dt)
     limit = robot.com_height_m if divergence_m is None else divergence_m
-    half_box = 0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m])
     true_state = controller.state.copy()  # rows x_c, ẋ_c, x_z; columns x, y
     recorder = recorder if recorder is not None else TraceRecorder(int(duration_s / dt) + 2)
     plan = controller.plan
@@ -101,6 +100,7 @@ def run_lip(
         )
         centre = plan.centre(np.array([t]))[0]
         yaw = float(plan.centre_yaw(np.array([t]))[0])
+        half_box = plan.box_half(np.array([t]))[0]
         violation = zmp_box_violation(true_state[2], centre, yaw, half_box)
         try:
             ref = controller.step(t, meas)
@@ -110,7 +110,7 @@ def run_lip(
         info = controller.info
         recorder.record(
             t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
-            zmp_ref_m=ref.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_yaw_rad=yaw,
+            zmp_ref_m=ref.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_half_m=half_box, box_yaw_rad=yaw,
             zmp_violation_m=violation, left_foot_m=ref.left_foot.pos_m, right_foot_m=ref.right_foot.pos_m,
             support=_SUPPORT_CODE[ref.support], step_index=ref.step_index, time_to_step_s=ref.time_to_step_s,
             disturbance_true_mps2=w, disturbance_est_mps2=info.disturbance_mps2,

@@ -135,7 +135,6 @@ class IsmpcQp:
         self.stab = stability_coefficients(self.eta, dt, C, P, mpc.tail)
         self.horizon_offsets_s = dt * np.arange(1, C + 1)
         self.tail_offsets_s = dt * np.arange(C, P + 1)
-        self.half_box = 0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m])
         self._kin_lower = {s: kinematic_box(robot, s)[0] for s in (-1, 1)}
         self._kin_upper = {s: kinematic_box(robot, s)[1] for s in (-1, 1)}
         self._structures: dict[int, _Structure] = {}
@@ -228,6 +227,7 @@ class IsmpcQp:
         tail_fixed = self.stab.tail @ (W_t @ fixed_pos)  # (2,)
         tail_free = self.stab.tail @ W_t[:, free]  # (F,)
         R = np.zeros(C) if restriction_m is None else np.asarray(restriction_m, dtype=float)
+        half = W_h @ plan.box_half_m[hf.first : hf.last + 1]  # (C, 2) box half sides per row
 
         st = self._structure(F)
         offset = state.zmp_m[None, :] - centre_fixed  # (C, 2): p_z - centre (known part)
@@ -253,12 +253,12 @@ class IsmpcQp:
             problems = []
             for axis in range(2):
                 lower = np.concatenate([
-                    -self.half_box[axis] + R - offset[:, axis],
+                    -half[:, axis] + R - offset[:, axis],
                     kin_lower[:, axis] + prev_known[:, axis],
                     [stab_rhs[axis]],
                 ])
                 upper = np.concatenate([
-                    self.half_box[axis] - R - offset[:, axis],
+                    half[:, axis] - R - offset[:, axis],
                     kin_upper[:, axis] + prev_known[:, axis],
                     [stab_rhs[axis]],
                 ])
@@ -287,15 +287,15 @@ class IsmpcQp:
         prev_a = ck[:, 0] * prev_known[:, 0] + sk[:, 0] * prev_known[:, 1]
         prev_b = -sk[:, 0] * prev_known[:, 0] + ck[:, 0] * prev_known[:, 1]
         lower = np.concatenate([
-            -self.half_box[0] + R - off_a,
-            -self.half_box[1] + R - off_b,
+            -half[:, 0] + R - off_a,
+            -half[:, 1] + R - off_b,
             kin_lower[:, 0] + prev_a,
             kin_lower[:, 1] + prev_b,
             stab_rhs,
         ])
         upper = np.concatenate([
-            self.half_box[0] - R - off_a,
-            self.half_box[1] - R - off_b,
+            half[:, 0] - R - off_a,
+            half[:, 1] - R - off_b,
             kin_upper[:, 0] + prev_a,
             kin_upper[:, 1] + prev_b,
             stab_rhs,

@@ -139,16 +139,18 @@ def plan_footsteps(
     side[0] = VIRTUAL
     side[1:] = first_support * np.where(np.arange(n - 1) % 2 == 0, 1, -1)
 
-    # Template integration (unicycle, spec eq. 2) at the step starts (touchdown-to-touchdown).
-    t_grid = np.arange(0.0, float(ss_start[-1] + T_ss[-1]) + integration_step_s, integration_step_s)
-    vel = np.array([command(float(t)) for t in t_grid])
+    # Template integration (unicycle, spec eq. 2), sampled at the touchdowns. The template starts
+    # moving one step period before the first swing foot lands, so that the first step covers
+    # v T_step like every other one (not the standing time as well).
+    touchdown = ss_start + T_ss
+    t_origin = touchdown[2] - robot.T_step_s
+    t_grid = np.arange(0.0, float(touchdown[-1] - t_origin) + integration_step_s, integration_step_s)
+    vel = np.array([command(float(t + t_origin)) for t in t_grid])
     theta = np.concatenate([[yaw_rad], yaw_rad + np.cumsum(vel[:-1, 2]) * integration_step_s])
     c, s = np.cos(theta), np.sin(theta)
     world_vel = np.stack([vel[:, 0] * c - vel[:, 1] * s, vel[:, 0] * s + vel[:, 1] * c], -1)
     path = np.concatenate([[np.zeros(2)], np.cumsum(world_vel[:-1], 0) * integration_step_s])
-    # Sample at the touchdown of each step (the foot placement instant).
-    touchdown = ss_start + T_ss
-    idx = np.clip(np.round(touchdown[1:] / integration_step_s).astype(int), 0, len(t_grid) - 1)
+    idx = np.clip(np.round((touchdown[1:] - t_origin) / integration_step_s).astype(int), 0, len(t_grid) - 1)
     path_theta = theta[idx]
 
     # Orientation QP (§9.3): clipped increments.
@@ -174,8 +176,12 @@ def plan_footsteps(
         local = R_prev.T @ (desired[j - 1] - desired[j - 2])
         pos[j] = pos[j - 1] + R_prev @ np.clip(local, lower, upper)
 
+    box_half = np.tile(0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m]), (n, 1))
+    half_gap = 0.5 * np.linalg.norm(left - right)
+    box_half[0] = [0.5 * robot.zmp_box_x_m, half_gap + 0.5 * robot.zmp_box_y_m]
     return FootstepPlan(
         pos_m=pos.copy(),
+        box_half_m=box_half,
         candidate_pos_m=pos,
         yaw_rad=yaw,
         side=side,

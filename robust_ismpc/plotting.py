@@ -63,11 +63,14 @@ def _draw_run(axes, trace: Trace, title: str) -> None:
     fell = trace.meta.get("fell")
     top.set_title(f"{title}" + (" - FELL" if fell else ""))
     top.legend(loc="best", fontsize=7)
-    half = 0.5 * np.array([trace.meta.get("zmp_box_x_m", np.nan), trace.meta.get("zmp_box_y_m", np.nan)])
+    half = trace["box_half_m"]
+    if not np.isfinite(half).any():
+        half = np.tile(0.5 * np.array([trace.meta.get("zmp_box_x_m", np.nan), trace.meta.get("zmp_box_y_m", np.nan)]),
+                       (len(t), 1))
     for axis, ax in ((0, ax_x), (1, ax_y)):
         name = "xy"[axis]
         centre = trace["box_centre_m"][:, axis]
-        ax.fill_between(t, centre - half[axis], centre + half[axis], color="tab:orange", alpha=0.2,
+        ax.fill_between(t, centre - half[:, axis], centre + half[:, axis], color="tab:orange", alpha=0.2,
                         label="ZMP bounds (box)")
         ax.plot(t, trace["zmp_m"][:, axis], color="tab:orange", lw=1, label="ZMP")
         ax.plot(t, trace["com_m"][:, axis], color="tab:green", lw=1.2, label="CoM")

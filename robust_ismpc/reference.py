@@ -34,11 +34,16 @@ class Measurement:
         Measured ZMP, i.e. the centre of pressure of the contact forces [m]. ``None`` when no
         foot is in contact or no force sensing is available; the observer then skips its ZMP
         correction.
+    left_sole_m, right_sole_m : ndarray, shape (2,) or None
+        Measured sole positions (xy) [m], when available. The controller uses them to place a
+        footstep where the foot actually landed.
     """
 
     com_pos_m: np.ndarray
     com_vel_mps: np.ndarray
     zmp_m: np.ndarray | None = None
+    left_sole_m: np.ndarray | None = None
+    right_sole_m: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -109,6 +109,8 @@ class RobustIsmpcController(IsmpcController):
         See :class:`~robust_ismpc.controller.IsmpcController`.
     solver : QpSolver, optional
     params : RobustParams, optional
+    **controller_options
+        ``velocity_feedback_gain``, ``anchor_landed_footsteps`` (see the base class).
 
     Raises
     ------
@@ -126,8 +128,9 @@ class RobustIsmpcController(IsmpcController):
         state_feedback_gain: float = 1.0,
         solver: QpSolver | None = None,
         params: RobustParams | None = None,
+        **controller_options,
     ):
-        super().__init__(robot, mpc, state_feedback_gain=state_feedback_gain, solver=solver)
+        super().__init__(robot, mpc, state_feedback_gain=state_feedback_gain, solver=solver, **controller_options)
         modules = tuple(modules)
         unknown = [m for m in modules if m not in MODULES]
         if unknown:

@@ -110,15 +110,20 @@ class RunResult:
     trace: Trace
 
 
-def make_controller(robot: RobotParams, spec: RunSpec, state_feedback_gain: float = 1.0) -> IsmpcController:
-    """The controller for ``spec``: nominal IS-MPC plus the requested modules."""
+def make_controller(robot: RobotParams, spec: RunSpec, state_feedback_gain: float = 1.0,
+                    **controller_options) -> IsmpcController:
+    """The controller for ``spec``: nominal IS-MPC plus the requested modules.
+
+    ``controller_options`` go to the controller (``velocity_feedback_gain``,
+    ``anchor_landed_footsteps``, and for the robust one ``params``).
+    """
     if not spec.modules:
-        return IsmpcController(robot, spec.mpc, state_feedback_gain=state_feedback_gain)
+        return IsmpcController(robot, spec.mpc, state_feedback_gain=state_feedback_gain, **controller_options)
     from .robust import RobustIsmpcController
 
     return RobustIsmpcController(
         robot, spec.mpc, modules=spec.modules, delta_max_mps2=spec.delta_max_mps2,
-        state_feedback_gain=state_feedback_gain,
+        state_feedback_gain=state_feedback_gain, **controller_options,
     )
 
 

@@ -21,6 +21,7 @@ CHANNELS: dict[str, tuple[int, ...]] = {
     "zmp_ref_m": (2,),
     "dcm_m": (2,),  # shifted DCM used by the MPC
     "box_centre_m": (2,),
+    "box_half_m": (2,),
     "box_yaw_rad": (),
     "zmp_violation_m": (),
     "left_foot_m": (3,),
