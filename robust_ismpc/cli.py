@@ -130,6 +130,50 @@ def build_parser() -> argparse.ArgumentParser:
     p_bench.add_argument("--solvers", default="daqp,osqp,proxqp,quadprog",
                          help="solvers to compare on the same QPs (those installed)")
     p_bench.add_argument("--out", default=None, help="write bench.json (and bench.md) into this directory")
+
+    p_sweep = sub.add_parser(
+        "sweep", help="push-recovery frontier: largest survived push per controller, direction and phase",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="For each controller, push direction and gait phase, find by bisection the largest impulse "
+        "(and optionally constant force) the robot survives. Writes OUT/runs.csv (one row per trial, appended as "
+        "trials finish), OUT/frontier.json, OUT/frontier_polar.png, OUT/frontier_phase.png and OUT/report.md. "
+        "Rerunning the same command resumes an interrupted sweep.",
+        epilog="examples:\n  ismpc sweep --controllers nominal,timing,robust --direction 0:360:8 --phase 0:1:4 "
+        "--impulse-max 20 --out sweeps/g1\n  ismpc sweep --controllers robust --direction 90 --phase 0.5 "
+        "--impulse-max 10 --force-max 100 --iterations 6 --out sweeps/g1-left",
+    )
+    p_sweep.add_argument("--sim", default="lip", help="simulator: lip or mujoco (default lip)")
+    p_sweep.add_argument("--robot", default="g1", help="robot (g1)")
+    p_sweep.add_argument("--controllers", default="nominal,robust",
+                         help="comma-separated: nominal, robust, observer, restriction, timing, or modules joined "
+                         "by '+' (default nominal,robust)")
+    p_sweep.add_argument("--direction", default="0,90,180,270",
+                         help="push directions [deg], 0 = forward, 90 = left: a list or START:STOP:STEPS "
+                         "(default 0,90,180,270)")
+    p_sweep.add_argument("--phase", default="0:1:4",
+                         help="phases of the pushed step's single support in [0, 1): START:STOP:STEPS evenly "
+                         "spaced in [START, STOP), or a list (default 0:1:4 = 0, 0.25, 0.5, 0.75)")
+    p_sweep.add_argument("--impulse-max", type=_finite_float("impulse-max"), required=True,
+                         help="upper end of the impulse bisection [N s]")
+    p_sweep.add_argument("--force-max", type=_finite_float("force-max"), default=None,
+                         help="also bisect a constant force in [0, FORCE_MAX] N, on from the push instant")
+    p_sweep.add_argument("--push-duration", type=_finite_float("push-duration"), default=0.1,
+                         help="duration of the impulsive push [s] (0.1)")
+    p_sweep.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
+    p_sweep.add_argument("--duration", type=_finite_float("duration"), default=3.0,
+                         help="simulated time after the push starts [s] (3)")
+    p_sweep.add_argument("--iterations", type=int, default=8,
+                         help="bisection steps after the trial at the maximum; resolution = max / 2^N (8)")
+    p_sweep.add_argument("--pushed-step", type=int, default=4,
+                         help="which regular step is pushed, 1 = the first (4)")
+    p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
+    p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
+    p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
+    p_sweep.add_argument("--out", required=True, help="output directory")
+    p_sweep.add_argument("--overwrite", action="store_true",
+                         help="discard an earlier sweep in --out (without it, the same sweep resumes and a "
+                         "different one is refused)")
+    p_sweep.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return parser
 
 
@@ -262,6 +306,69 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _sweep_progress(args):
+    """Progress bar with ETA on a TTY, else a line about every 10 %; None with --quiet."""
+    if args.quiet:
+        return None
+    tty = sys.stderr.isatty()
+    state = {"decile": -1}
+
+    def report(p) -> None:
+        rate = p.new / p.elapsed_s if p.elapsed_s > 0 else 0.0
+        eta = (p.total - p.done) / rate if rate > 0 else float("nan")
+        eta_s = "--:--" if not math.isfinite(eta) else f"{int(eta // 60)}:{int(eta % 60):02d}"
+        fraction = p.done / p.total if p.total else 1.0
+        if tty:
+            bar = "#" * int(30 * fraction)
+            sys.stderr.write(f"\r[{bar:<30}] {p.done}/{p.total} trials  {rate:5.1f} runs/s  ETA {eta_s} ")
+            sys.stderr.flush()
+        elif int(10 * fraction) > state["decile"]:
+            state["decile"] = int(10 * fraction)
+            sys.stderr.write(f"sweep: {p.done}/{p.total} trials ({100 * fraction:.0f} %), {rate:.1f} runs/s, ETA {eta_s}\n")
+            sys.stderr.flush()
+
+    return report
+
+
+def cmd_sweep(args) -> int:
+    import shlex
+
+    from .sweep import (
+        SweepConfig,
+        frontier_table,
+        parse_controllers,
+        parse_directions,
+        parse_phases,
+        run_sweep,
+    )
+
+    config = SweepConfig(
+        robot=args.robot, sim=args.sim, controllers=parse_controllers(args.controllers),
+        directions_deg=parse_directions(args.direction), phases=parse_phases(args.phase),
+        impulse_max_ns=args.impulse_max, force_max_n=args.force_max, push_duration_s=args.push_duration,
+        vx_mps=args.vx, post_push_s=args.duration, iterations=args.iterations, pushed_step=args.pushed_step,
+        seed=args.seed,
+    )
+    progress = _sweep_progress(args)
+    out = Path(args.out)
+    try:
+        result = run_sweep(config, out, workers=args.workers, backend=args.backend, overwrite=args.overwrite,
+                           progress=progress, command_line=shlex.join(["ismpc", *sys.argv[1:]]))
+    except KeyboardInterrupt:
+        sys.stderr.write(f"\nismpc: sweep interrupted; finished trials are in {out / 'runs.csv'}; "
+                         "rerun the same command to resume\n")
+        return 130
+    if progress is not None and sys.stderr.isatty():
+        sys.stderr.write("\n")
+    print(f"sweep {config.robot}/{config.sim}: {result.trials_total} trials ({result.trials_new} run now, "
+          f"{result.trials_resumed} resumed) in {result.wall_time_s:.1f} s ({result.runs_per_s:.2f} runs/s)")
+    for kind in result.frontier["frontier"]:
+        print(f"\nlargest survived {kind} ({'N s' if kind == 'impulse' else 'N'}), min / mean over phases:")
+        print(frontier_table(result.frontier, kind))
+    print("wrote " + ", ".join(str(p) for p in result.paths))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -269,7 +376,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench}
+    handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep}
     try:
         return handlers[args.command](args)
     except IsmpcError as exc:

@@ -100,6 +100,12 @@ class IsmpcController:
     anchor_landed_footsteps : bool
         When the measurement carries sole positions, a footstep that has just landed is moved
         to where the foot actually is (default True), so the ZMP boxes follow the real feet.
+    replan_on_landing : bool
+        When a footstep lands away from its candidate (the MPC moved it, or the foot landed
+        elsewhere), translate every later candidate by the same offset (default True). This is
+        what an online planner integrating the command from the current support does (T-RO
+        §III); without it, after a push the candidates and the anticipative tail stay behind
+        (or beside) the robot and pull the ZMP back.
     """
 
     def __init__(
@@ -110,6 +116,7 @@ class IsmpcController:
         solver: QpSolver | None = None,
         velocity_feedback_gain: float | None = None,
         anchor_landed_footsteps: bool = True,
+        replan_on_landing: bool = True,
     ):
         if velocity_feedback_gain is None:
             velocity_feedback_gain = state_feedback_gain
@@ -125,6 +132,7 @@ class IsmpcController:
         self.state_feedback_gain = float(state_feedback_gain)
         self.velocity_feedback_gain = float(velocity_feedback_gain)
         self.anchor_landed_footsteps = bool(anchor_landed_footsteps)
+        self.replan_on_landing = bool(replan_on_landing)
         self.modules: frozenset[str] = frozenset()
         self.info = CycleInfo()
         self._log = _RateLimitedLog()
@@ -222,17 +230,21 @@ class IsmpcController:
         return result.zmp_vel_mps[0], result
 
     def _anchor_landed(self, t_s: float, measurement: Measurement | None) -> None:
-        """Place the footstep that has just landed at the measured sole (once per step)."""
+        """Once per step, at touchdown: place the landed footstep at the measured sole (if
+        measured) and translate the later candidates by its offset from its candidate."""
         plan = self.plan
         j = plan.step_at(t_s)
         if j < 2 or j <= self._anchored_step or t_s < plan.touchdown_s[j] - 1e-9:
             return
         self._anchored_step = j
-        if not self.anchor_landed_footsteps or measurement is None:
-            return
-        sole = measurement.left_sole_m if plan.side[j] == LEFT else measurement.right_sole_m
-        if sole is not None:
-            plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+        if self.anchor_landed_footsteps and measurement is not None:
+            sole = measurement.left_sole_m if plan.side[j] == LEFT else measurement.right_sole_m
+            if sole is not None:
+                plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+        if self.replan_on_landing:
+            offset = plan.pos_m[j] - plan.candidate_pos_m[j]
+            plan.candidate_pos_m[j:] += offset
+            plan.pos_m[j + 1 :] += offset
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
         """Hook run first in every cycle (the robust controller updates its observer here)."""

@@ -67,7 +67,7 @@ class RobustParams:
     delta_max_fraction: float = 0.5
     observer_poles: tuple[float, float, float] = (0.6, 0.7, 0.8)
     observer_zmp_pole: float = 0.5
-    persistence_s: float = 0.25
+    persistence_s: float = 0.12
     midrange_rate_mps3: float = 10.0
     sta: StaParams | None = None
 
