@@ -59,8 +59,11 @@ class RobustParams:
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
     sta : StaParams or None
-        Step timing adaptation settings; None: defaults with the safety margin set to a quarter
-        of the smaller ZMP box side (a 2 cm margin does not fit a 3-4 cm box).
+        Step timing adaptation settings; None: defaults with the safety margin (and trigger
+        distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
+        box, and with 1/4 or 1/8 of the box the undisturbed gaits of g1, op3 and nao already
+        come that close to their bounds and get re-timed; with 1/16 none of hrp4, g1, op3, nao
+        adapts in 10 s walks forward, backward, sideways and turning (measured).
     """
 
     delta_max_mps2: float | None = None
@@ -158,7 +161,7 @@ class RobustIsmpcController(IsmpcController):
             )
             self.delta_max_mps2 = float(dmax)
             self._restriction_m = restriction_profile(self.restriction_rate_mps, self.dt, mpc_p.C)
-        self.sta_params = params.sta if params.sta is not None else StaParams(margin_m=box / 4)
+        self.sta_params = params.sta if params.sta is not None else StaParams(margin_m=box / 16)
         self.observer: DisturbanceObserver | None = None
         self.midrange: MidrangeFilter | None = None
         if "observer" in self.modules:

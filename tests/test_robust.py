@@ -1,0 +1,166 @@
+"""Robust IS-MPC on the LIP: observer, restriction, step timing and their combination (issue evidence)."""
+
+import logging
+
+import numpy as np
+import pytest
+
+from robust_ismpc.controller import IsmpcController
+from robust_ismpc.exceptions import ControllerFailure, ParameterError
+from robust_ismpc.forces import ForceWindow
+from robust_ismpc.lip import discretise
+from robust_ismpc.lip_sim import run_lip
+from robust_ismpc.params import MpcParams, robot_params
+from robust_ismpc.planner import WalkCommand, plan_footsteps
+from robust_ismpc.reference import Measurement
+from robust_ismpc.restriction import max_tolerable_deviation
+from robust_ismpc.robust import MODULES, RobustIsmpcController
+
+ROBOT = robot_params("g1")
+
+
+def _walk(modules, forces=(), duration_s=12.0, mpc=None, vx=0.2, **kwargs):
+    """Closed-loop LIP walk of g1 with the given modules; returns (outcome, trace, controller)."""
+    mpc = mpc if mpc is not None else MpcParams()
+    if modules:
+        controller = RobustIsmpcController(ROBOT, mpc, modules=modules, **kwargs)
+    else:
+        controller = IsmpcController(ROBOT, mpc)
+    left = np.array([0.0, 0.5 * ROBOT.foot_spacing_m])
+    plan = plan_footsteps(ROBOT, WalkCommand(vx), duration_s + mpc.preview_horizon_s + 1.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    outcome, rec = run_lip(controller, duration_s, forces)
+    return outcome, rec.finish(controller.plan, {}), controller
+
+
+@pytest.fixture(autouse=True)
+def _quiet():
+    logging.disable(logging.WARNING)
+    yield
+    logging.disable(logging.NOTSET)
+
+
+def test_observer_converges_to_constant_force_and_stays_zero_without():
+    """Closed loop: w̃ reaches F/m within 2 % by 0.6 s after a constant force starts; 0 without force."""
+    force = 5.0
+    _, trace, _ = _walk(("observer",), [ForceWindow(0.0, force)], duration_s=3.0)
+    t, w = trace["t_s"], trace["disturbance_est_mps2"][:, 1]
+    assert np.all(np.abs(w[t >= 0.6] - force / ROBOT.mass_kg) <= 0.02 * force / ROBOT.mass_kg)
+    _, quiet, _ = _walk(("observer",), (), duration_s=3.0)
+    assert np.max(np.abs(quiet["disturbance_est_mps2"])) < 1e-9
+
+
+def test_persistent_lateral_force_fails_nominal_observer_walks_and_leans():
+    """A lateral force of 63 % of m g d_y / (2h) from the start: nominal fails; with the observer
+    the robot walks 20 s and its CoM leans against the push by w/η² (seed paper Fig. 2)."""
+    force = 5.0
+    static_limit = ROBOT.mass_kg * 9.81 * ROBOT.zmp_box_y_m / (2 * ROBOT.com_height_m)
+    assert force / static_limit == pytest.approx(0.63, abs=0.01)
+    nominal, _, _ = _walk((), [ForceWindow(0.0, force)], duration_s=20.0)
+    robust, trace, _ = _walk(("observer",), [ForceWindow(0.0, force)], duration_s=20.0)
+    assert nominal.fell
+    assert not robust.fell
+    lean = np.mean(trace["com_m"][-700:, 1] - trace["zmp_m"][-700:, 1])  # last five steps
+    expected = -(force / ROBOT.mass_kg) / ROBOT.eta**2
+    assert lean == pytest.approx(expected, rel=0.2)
+
+
+def _deviation_run(restrict, dmax, seed, duration_s, fix_footsteps, adversarial):
+    """LIP walk with a known mid-range w_m and a deviation |Δw| <= dmax; returns (cycles, infeasible)."""
+    rng = np.random.default_rng(seed)
+    mpc = MpcParams(fix_footsteps=fix_footsteps)
+    modules = ("restriction",) if restrict else ()
+    controller = RobustIsmpcController(ROBOT, mpc, modules=modules, delta_max_mps2=dmax if restrict else None)
+    left = np.array([0.0, 0.5 * ROBOT.foot_spacing_m])
+    plan = plan_footsteps(ROBOT, WalkCommand(0.2), duration_s + 4.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    w_mid = np.array([0.05, -0.03])
+    controller.disturbance_mps2 = w_mid.copy()  # the mid-range is known (spec §12.1)
+    disc = discretise(ROBOT.eta, 0.01)
+    x = controller.state.copy()
+    dev = np.zeros(2)
+    n = int(round(duration_s / 0.01))
+    for k in range(n):
+        if adversarial:  # push the DCM away from the ZMP, the worst sign
+            dev = dmax * np.sign(x[0] + x[1] / ROBOT.eta - x[2])
+        elif rng.random() < 0.05:
+            dev = rng.uniform(-dmax, dmax, 2)
+        try:
+            ref = controller.step(k * 0.01, Measurement(np.array([*x[0], 0.0]), np.array([*x[1], 0.0]), x[2].copy()))
+        except ControllerFailure:
+            return k, controller.infeasible_count
+        x = disc.A @ x + np.outer(disc.B, (ref.zmp_m - x[2]) / 0.01) + np.outer(disc.E, w_mid + dev)
+    return n, controller.infeasible_count
+
+
+def test_restriction_monte_carlo_has_no_infeasible_qp():
+    """Random time-varying deviations up to 0.9 Δmax around the mid-range: 0 infeasible QPs in 10⁴ cycles."""
+    dmax = 0.9 * max_tolerable_deviation(min(ROBOT.zmp_box_x_m, ROBOT.zmp_box_y_m), ROBOT.eta, 0.01, 1.0)
+    total = infeasible = 0
+    for seed in range(5):
+        cycles, count = _deviation_run(True, dmax, seed, 20.0, fix_footsteps=False, adversarial=False)
+        total += cycles
+        infeasible += count
+    assert total >= 10_000 and infeasible == 0
+
+
+def test_restriction_keeps_feasibility_where_unrestricted_loses_it():
+    """Fixed footsteps, worst-sign deviation of 0.9 Δmax: restricted stays feasible 10 s, unrestricted fails."""
+    dmax = 0.9 * max_tolerable_deviation(min(ROBOT.zmp_box_x_m, ROBOT.zmp_box_y_m), ROBOT.eta, 0.01, 1.0)
+    cycles, count = _deviation_run(True, dmax, 0, 10.0, fix_footsteps=True, adversarial=True)
+    assert cycles == 1000 and count == 0
+    cycles, count = _deviation_run(False, dmax, 0, 10.0, fix_footsteps=True, adversarial=True)
+    assert cycles < 1000 and count > 0
+
+
+def test_unguaranteeable_delta_max_is_refused():
+    """A Δmax beyond what foot and horizon allow raises ParameterError naming the largest allowed."""
+    with pytest.raises(ParameterError, match="largest guaranteed delta_max"):
+        RobustIsmpcController(ROBOT, MpcParams(), modules=("restriction",), delta_max_mps2=1.0)
+
+
+PUSH_T = 4.25  # 0.05 s into the single support of step 5 (4.2 s - 4.7 s)
+
+
+def test_step_timing_survives_push_that_makes_nominal_infeasible():
+    """A 100 N, 0.1 s forward push in single support: nominal becomes infeasible, timing adaptation
+    survives by stepping sooner (seed paper: time-to-step 0.25 s -> 0.1 s)."""
+    push = [ForceWindow(100.0, 0.0, PUSH_T, PUSH_T + 0.1)]
+    nominal, _, _ = _walk((), push, duration_s=8.0)
+    adapted, trace, controller = _walk(("timing",), push, duration_s=8.0)
+    assert nominal.fell and "infeasible" in nominal.failure
+    assert not adapted.fell
+    assert controller.timing_adaptations >= 1
+    chosen = trace["time_to_step_s"][trace["timing_adapted"] > 0]
+    nominal_remaining = 4.7 - (PUSH_T + 0.1)
+    assert chosen.min() < nominal_remaining - 0.1
+
+
+def test_push_that_does_not_threaten_feasibility_changes_nothing():
+    """A small push leaves the timing untouched: the run equals the one without the module."""
+    push = [ForceWindow(15.0, 0.0, PUSH_T, PUSH_T + 0.1)]
+    _, plain, _ = _walk((), push, duration_s=6.0)
+    _, adapted, controller = _walk(("timing",), push, duration_s=6.0)
+    assert controller.timing_adaptations == 0
+    np.testing.assert_array_equal(plain["com_m"], adapted["com_m"])
+
+
+def test_no_disturbance_all_modules_walk_like_nominal():
+    """Without disturbance the robust controller adapts nothing and estimates zero."""
+    outcome, trace, controller = _walk(MODULES, (), duration_s=8.0)
+    assert not outcome.fell and controller.timing_adaptations == 0
+    assert np.max(np.abs(trace["disturbance_est_mps2"])) < 1e-9
+    assert np.max(trace["zmp_violation_m"]) < 1e-9
+
+
+@pytest.mark.parametrize("impulse_t", [8.45, 8.65, 9.15])
+def test_constant_sagittal_force_plus_coronal_impulse(impulse_t):
+    """Seed paper's HRP-4 scenario at 40 % of its mass-scaled size (15 N sagittal from 3 s, 30 N
+    coronal for 0.1 s): robust survives at three gait phases, nominal and timing-only fail."""
+    forces = [ForceWindow(15.0, 0.0, 3.0), ForceWindow(0.0, 30.0, impulse_t, impulse_t + 0.1)]
+    nominal, _, _ = _walk((), forces, duration_s=14.0)
+    timing, _, _ = _walk(("timing",), forces, duration_s=14.0)
+    robust, trace, controller = _walk(MODULES, forces, duration_s=14.0)
+    assert nominal.fell and timing.fell
+    assert not robust.fell
+    assert trace["disturbance_est_mps2"][-1, 0] == pytest.approx(15.0 / ROBOT.mass_kg, rel=0.05)
