@@ -231,7 +231,8 @@ def _write_run(result, out: Path, title: str | None = None) -> None:
 
 
 def _one_line(summary: dict) -> str:
-    state = f"FELL ({summary['failure']})" if summary["fell"] else "walked"
+    state = f"FELL ({summary['failure']})" if summary["fell"] else (
+        "INTERRUPTED" if summary["failure"] == "interrupted" else "walked")
     return (
         f"{summary['robot']}/{summary['sim']}/{summary['controller']}: {state}; "
         f"{summary['duration_s']:.2f} s, {summary['distance_m']:.2f} m, {summary['steps_taken']} steps, "
@@ -251,6 +252,9 @@ def cmd_run(args) -> int:
     _write_run(result, out)
     print(_one_line(result.summary))
     print(f"wrote {out / 'summary.json'}, {out / 'gait.png'}, {out / 'trace.npz'}" + (f", {video}" if video else ""))
+    if result.summary["failure"] == "interrupted":
+        sys.stderr.write("ismpc: interrupted; the part of the run that finished was written\n")
+        return 130
     return 0
 
 

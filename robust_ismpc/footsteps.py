@@ -145,21 +145,30 @@ class FootstepPlan:
         alpha = np.clip((times_s - self.touchdown_s[j]) / self.T_ds_s[j], 0.0, 1.0)
         return j - 1, alpha
 
-    def weight_matrix(self, times_s: np.ndarray, first: int, count: int) -> np.ndarray:
+    def weight_matrix(
+        self, times_s: np.ndarray, first: int, count: int, weights: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> np.ndarray:
         """Dense weights over footsteps ``first .. first+count-1``, shape (M, count).
 
         Row m holds the convex combination giving the ZMP box centre at ``times_s[m]``.
+        ``weights`` may pass ``centre_weights(times_s)`` when the caller already has it.
         """
-        lo, alpha = self.centre_weights(times_s)
-        rows = np.arange(len(times_s))
-        W = np.zeros((len(times_s), count))
+        lo, alpha = self.centre_weights(times_s) if weights is None else weights
+        rows = np.arange(len(lo))
+        W = np.zeros((len(lo), count))
         W[rows, lo - first] = 1.0 - alpha
         hi = lo + 1 - first
+        if hi[-1] >= count and alpha[-1] > 0:  # hi is non-decreasing: the last row is the widest
+            raise PlanError("weight_matrix: footstep range too short for the query times")
         inside = hi < count
         W[rows[inside], hi[inside]] += alpha[inside]
-        if np.any(~inside & (alpha > 0)):
-            raise PlanError("weight_matrix: footstep range too short for the query times")
         return W
+
+    def interpolate(self, values: np.ndarray, weights: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        """Per-footstep ``values`` (N, ...) interpolated with ``weights = centre_weights(times)``."""
+        lo, alpha = weights
+        a = alpha.reshape(-1, *([1] * (values.ndim - 1)))
+        return (1.0 - a) * values[lo] + a * values[lo + 1]
 
     def centre(self, times_s: np.ndarray, positions: np.ndarray | None = None) -> np.ndarray:
         """ZMP box centre at each time, shape (M, 2), from ``positions`` (default ``pos_m``)."""

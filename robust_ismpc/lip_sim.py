@@ -22,6 +22,7 @@ from .lip import discretise
 from .reference import Measurement, Support
 from .trace import Trace, TraceRecorder
 
+INTERRUPTED = "interrupted"
 _SUPPORT_CODE = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}
 
 
@@ -42,6 +43,11 @@ class RunOutcome:
     fell: bool
     failure: str | None
     duration_s: float
+
+    @property
+    def interrupted(self) -> bool:
+        """True if the user stopped the run (Ctrl-C); what ran until then is kept."""
+        return self.failure == INTERRUPTED
 
 
 def zmp_box_violation(zmp_m: np.ndarray, centre_m: np.ndarray, yaw_rad: float, half_box_m: np.ndarray) -> float:
@@ -107,6 +113,9 @@ def run_lip(
         except ControllerFailure as exc:
             failure = f"qp_infeasible: {exc}"
             break
+        except KeyboardInterrupt:
+            failure = INTERRUPTED
+            break
         info = controller.info
         recorder.record(
             t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
@@ -128,7 +137,8 @@ def run_lip(
             progress(t)
     else:
         t = n_ticks * dt
-    return RunOutcome(fell=failure is not None, failure=failure, duration_s=t), recorder
+    fell = failure is not None and failure != INTERRUPTED
+    return RunOutcome(fell=fell, failure=failure, duration_s=t), recorder
 
 
 def finish_trace(controller: IsmpcController, recorder: TraceRecorder, meta: dict) -> Trace:

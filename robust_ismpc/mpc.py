@@ -214,7 +214,8 @@ class IsmpcQp:
         count = hf.last - hf.first + 1
         t_h = state.t_s + self.horizon_offsets_s
         t_t = state.t_s + self.tail_offsets_s
-        W_h = plan.weight_matrix(t_h, hf.first, count)  # (C, count)
+        weights_h = plan.centre_weights(t_h)
+        W_h = plan.weight_matrix(t_h, hf.first, count, weights_h)  # (C, count)
         W_t = plan.weight_matrix(t_t, hf.first, count)  # (P-C+1, count)
         free = slice(hf.first_free - hf.first, hf.first_free - hf.first + F)
         # Positions of the non-free footsteps: landed ones from pos_m, later ones candidates.
@@ -241,9 +242,9 @@ class IsmpcQp:
         kin_upper = np.array([self._kin_upper[int(s)] for s in sides]).reshape(F, 2)
         target = plan.candidate_pos_m[free_idx]  # (F, 2)
         beta = self.mpc.footstep_weight
-        yaw_rows = plan.centre_yaw(t_h)
+        yaw_rows = plan.interpolate(plan.yaw_rad, weights_h)
         yaw_kin = plan.yaw_rad[free_idx - 1]
-        coupled = bool(np.any(np.abs(yaw_rows) > 1e-12) or np.any(np.abs(yaw_kin) > 1e-12))
+        coupled = bool(np.abs(yaw_rows).max() > 1e-12 or (F > 0 and np.abs(yaw_kin).max() > 1e-12))
         layout = QpLayout(C=C, F=F, coupled=coupled)
 
         if not coupled:

@@ -48,3 +48,27 @@ def test_module_parsing():
     assert parse_modules("robust") == ("observer", "restriction", "timing")
     assert parse_modules("nominal") == ()
     assert parse_modules("nominal", "timing,observer") == ("observer", "timing")
+
+
+def test_ctrl_c_keeps_what_ran(tmp_path, monkeypatch):
+    """A KeyboardInterrupt mid-run ends the run as 'interrupted' (not a fall) and the CLI still
+    writes summary.json, gait.png and trace.npz for the part that ran, then exits 130."""
+    from robust_ismpc import cli
+    from robust_ismpc.controller import IsmpcController
+
+    original = IsmpcController.step
+
+    def step(self, t_s, measurement=None):
+        if t_s >= 1.0:
+            raise KeyboardInterrupt
+        return original(self, t_s, measurement)
+
+    monkeypatch.setattr(IsmpcController, "step", step)
+    out = tmp_path / "run"
+    assert cli.main(["run", "--duration", "5", "--out", str(out), "--quiet"]) == 130
+    import json
+
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failure"] == "interrupted" and summary["fell"] is False
+    assert summary["duration_s"] == pytest.approx(1.0)
+    assert (out / "gait.png").exists() and (out / "trace.npz").exists()
