@@ -238,9 +238,11 @@ class IsmpcController:
             return
         self._anchored_step = j
         if self.anchor_landed_footsteps and measurement is not None:
-            sole = measurement.left_sole_m if plan.side[j] == LEFT else measurement.right_sole_m
+            side = int(plan.side[j])
+            sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
             if sole is not None:
                 plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+                self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
             offset = plan.pos_m[j] - plan.candidate_pos_m[j]
             plan.candidate_pos_m[j:] += offset

@@ -216,6 +216,21 @@ def test_control_period_must_match_timestep(op3_spec: RobotSpec) -> None:
         MujocoSimulation(op3_spec, settings=LoopSettings(control_period_s=0.0105))
 
 
+def test_foot_friction_setting(g1_spec: RobotSpec) -> None:
+    """LoopSettings.foot_friction sets the sliding friction of exactly the foot contact geoms, on a copy of the model."""
+    cached = g1_spec.load_model()
+    before = cached.geom_friction.copy()
+    sim = MujocoSimulation(g1_spec, settings=LoopSettings(foot_friction=1.3))
+    feet = sim.robot.foot_geom_ids()
+    assert len(feet) == 8  # four contact spheres per foot
+    np.testing.assert_allclose(sim.model.geom_friction[feet, 0], 1.3)
+    others = np.setdiff1d(np.arange(sim.model.ngeom), feet)
+    np.testing.assert_array_equal(sim.model.geom_friction[others], before[others])
+    np.testing.assert_array_equal(cached.geom_friction, before)  # the cached model is untouched
+    with pytest.raises(ParameterError):
+        LoopSettings(foot_friction=0.0)
+
+
 # ------------------------------------------------------------------ video
 def _offscreen_gl_works() -> bool:
     from robust_ismpc.sim import configure_offscreen_gl

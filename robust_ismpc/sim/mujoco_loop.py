@@ -17,6 +17,7 @@ below the reference) and a lateral CoM shift overshoots by 60 %.
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -66,6 +67,10 @@ class LoopSettings:
         PD gains for torque-motor actuators [N m/rad], [N m s/rad] (unused for position servos).
     gravity_feedforward : bool
         Add the static joint torques of the reference configuration to the servo commands.
+    foot_friction : float or None
+        Simulation setting: sliding friction coefficient of the foot contact geoms (None keeps
+        the model's). The contact uses the foot's value when the foot geoms have the higher
+        ``priority`` (G1) and the larger of foot and floor otherwise (OP3).
     """
 
     control_period_s: float = 0.01
@@ -76,12 +81,17 @@ class LoopSettings:
     motor_kp: float = 200.0
     motor_kd: float = 5.0
     gravity_feedforward: bool = True
+    foot_friction: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.control_period_s, (int, float)) or not self.control_period_s > 0:
             raise ParameterError(f"LoopSettings.control_period_s must be > 0, got {self.control_period_s!r}")
         if self.motor_kp < 0 or self.motor_kd < 0:
             raise ParameterError("LoopSettings.motor_kp and motor_kd must be >= 0")
+        if self.foot_friction is not None and not (
+            isinstance(self.foot_friction, (int, float)) and math.isfinite(self.foot_friction) and self.foot_friction > 0
+        ):
+            raise ParameterError(f"LoopSettings.foot_friction must be a finite number > 0 or None, got {self.foot_friction!r}")
 
 
 @dataclass(frozen=True)
@@ -230,6 +240,8 @@ class MujocoSimulation:
         self.spec = spec
         self.settings = settings or LoopSettings()
         self.model = build_scene(spec, scene_items)
+        if self.settings.foot_friction is not None:
+            self.model = copy.deepcopy(self.model)  # build_scene may return the cached model
         self.data = mujoco.MjData(self.model)
         timestep = float(self.model.opt.timestep)
         ratio = self.settings.control_period_s / timestep
@@ -240,6 +252,9 @@ class MujocoSimulation:
             )
         self.substeps = int(round(ratio))
         self.robot = MujocoRobot(spec, self.model, self.data, self.settings.contact_threshold_n)
+        if self.settings.foot_friction is not None:
+            for geom in self.robot.foot_geom_ids():
+                self.model.geom_friction[geom, 0] = self.settings.foot_friction
         self.ik = WholeBodyIk(spec, self.settings.ik)
         self.actuators = ActuatorMap(self.model, self.ik.model)
         self.forces = ForceSchedule(self.model, disturbances, spec.torso_body)

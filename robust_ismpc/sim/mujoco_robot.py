@@ -250,6 +250,12 @@ class MujocoRobot:
         self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
 
+    def foot_geom_ids(self) -> np.ndarray:
+        """Ids of the geoms of both feet that can touch the floor (contype or conaffinity set)."""
+        m = self.model
+        geoms = np.concatenate([self._foot_geoms[side] for side in SIDES]).astype(int)
+        return geoms[(m.geom_contype[geoms] != 0) | (m.geom_conaffinity[geoms] != 0)]
+
     # ------------------------------------------------------------------ kinematics
     def com(self) -> tuple[np.ndarray, np.ndarray]:
         """Whole-body CoM of the robot (disturbance bodies excluded).

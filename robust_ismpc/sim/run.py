@@ -66,6 +66,17 @@ class WalkSettings:
         resets the model's velocity every tick, the reference CoM stops moving while the ZMP
         runs to the box edge, and the QP turns infeasible within 1-3 s (G1 and OP3 with gains
         0.02 to 1, before the first step). Feedback goes through :class:`ComStabilizer`.
+        Still true with the separate velocity gain at 0: position gains 0.02 to 0.3 make the
+        G1 QP infeasible at 2.7 to 3.6 s (first steps).
+    velocity_feedback_gain : float
+        Blend of the measured CoM velocity into the MPC state, in [0, 1].
+    anchor_landed_footsteps : bool
+        Move each landed footstep of the plan to the measured sole (the measurement always
+        carries the soles). Off: with the open-loop LIP model (gains 0) the moved ZMP box no
+        longer matches the model's DCM and the QP turns infeasible (G1 forward 0.2 m/s:
+        infeasible at 4.05 s instead of walking 18 s).
+    foot_friction : float or None
+        Simulation setting: sliding friction of the foot contact geoms (None: the model's).
     com_feedback_gain : float
         K of :class:`ComStabilizer` (CoM error relative to the stance sole) [-].
     com_feedback_damping_s : float
@@ -77,21 +88,27 @@ class WalkSettings:
     """
 
     state_feedback_gain: float = 0.0
+    velocity_feedback_gain: float = 0.0
+    anchor_landed_footsteps: bool = False
+    foot_friction: float | None = None
     com_feedback_gain: float = 1.0
     com_feedback_damping_s: float = 0.05
     ik: IkSettings = field(default_factory=IkSettings)
     fall: FallCriteria = field(default_factory=FallCriteria)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.state_feedback_gain, (int, float)) and 0.0 <= self.state_feedback_gain <= 1.0):
-            raise ParameterError(
-                f"WalkSettings.state_feedback_gain must be in [0, 1], got {self.state_feedback_gain!r}"
-            )
+        for name in ("state_feedback_gain", "velocity_feedback_gain"):
+            gain = getattr(self, name)
+            if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
+                raise ParameterError(f"WalkSettings.{name} must be in [0, 1], got {gain!r}")
 
 
-#: Per-robot closed-loop settings (tuned; see docs/robots.md "Walking in MuJoCo").
+#: Per-robot closed-loop settings (tuned; see docs/robots.md "Walking in MuJoCo"). G1's feet get
+#: friction 1.0 instead of the model's 0.6: in single support its stance foot often rests on one
+#: or two of its four contact spheres, and at 0.6 it slid (20 mm/s on average) and turned (the
+#: robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the yaw stays within 0.1 rad.
 WALK_SETTINGS: dict[str, WalkSettings] = {
-    "g1": WalkSettings(),
+    "g1": WalkSettings(foot_friction=1.0),
     "op3": WalkSettings(),
 }
 
@@ -164,27 +181,6 @@ class ComStabilizer:
         return replace(reference, com_pos_m=com)
 
 
-def starting_command(command, params, ramp_steps: float = 2.0):
-    """``command`` held at zero while the robot stands, then ramped up over ``ramp_steps`` steps.
-
-    :func:`~robust_ismpc.planner.plan_footsteps` integrates the command from t = 0 and samples
-    it at touchdowns, so with a constant command the first step would cover the initial stand
-    and double support too (G1 at 0.2 m/s: a 0.23 m first step instead of 0.14 m), which the
-    full robot does not survive. Zero until one step before the first touchdown, then a linear
-    ramp: the first steps are short, as when a person starts walking.
-    """
-    t_stand = 2.0 * params.T_step_s  # plan_footsteps' defaults
-    t_walk = t_stand + params.T_step_s + params.T_ss_s - params.T_step_s
-    ramp_s = ramp_steps * params.T_step_s
-
-    def ramped(t_s: float) -> tuple[float, float, float]:
-        scale = min(max((t_s - t_walk) / ramp_s, 0.0), 1.0) if ramp_s > 0 else float(t_s >= t_walk)
-        vx, vy, omega = command(t_s)
-        return (scale * vx, scale * vy, scale * omega)
-
-    return ramped
-
-
 def _check_robot(name: str) -> None:
     if name not in BUILTIN_ROBOTS:
         raise ParameterError(
@@ -233,14 +229,18 @@ def run_mujoco_spec(
     com0, left0, right0 = initial_state(robot_spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
     plan = plan_footsteps(
-        params, starting_command(spec.command, params), spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
+        params, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
         left0.pos_m[:2], right0.pos_m[:2], yaw0,
     )
-    controller = make_controller(params, spec, state_feedback_gain=settings.state_feedback_gain)
+    controller = make_controller(
+        params, spec, state_feedback_gain=settings.state_feedback_gain,
+        velocity_feedback_gain=settings.velocity_feedback_gain,
+        anchor_landed_footsteps=settings.anchor_landed_footsteps,
+    )
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
-    loop = LoopSettings(control_period_s=dt, ik=settings.ik, fall=settings.fall)
+    loop = LoopSettings(control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=settings.foot_friction)
     sim = MujocoSimulation(robot_spec, disturbances=forces, settings=loop)
     mass = sim.robot.mass_kg
     robot = sim.robot
@@ -266,6 +266,9 @@ def run_mujoco_spec(
             t_s = k * dt
             a = time.perf_counter()
             measurement, contacts = robot.measure()
+            measurement = replace(
+                measurement, left_sole_m=robot.sole_pose("left").pos_m[:2], right_sole_m=robot.sole_pose("right").pos_m[:2]
+            )
             polygon = robot.support_polygon(contacts)
             violation = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)
             b = time.perf_counter()
