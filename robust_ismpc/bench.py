@@ -1,9 +1,12 @@
 """Timing benchmarks of the MPC cycle.
 
 For each control horizon C the controller walks on the LIP (closed loop, 0.2 m/s) and every
-cycle's QP build, solve and whole-step times are recorded. A sample of the QPs solved in that
-run is then solved again by each requested solver (DAQP directly, cold start, and qpsolvers
-backends) to compare solvers on identical problems.
+cycle's QP build, solve and whole-step times are recorded, for the nominal controller and for
+the robust one (observer + restriction + timing adaptation, with a few pushes so that the
+adaptation runs), split by component. A sample of the QPs solved in the nominal run is then
+solved again by each requested solver (DAQP directly, cold start, and qpsolvers backends) to
+compare solvers on identical problems. Optionally the MuJoCo closed loop's real-time factor is
+measured on a short G1 walk.
 """
 
 from __future__ import annotations
@@ -18,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from .controller import IsmpcController
+from .forces import ForceWindow
+from .robust import RobustIsmpcController
 from .io import atomic_write_bytes, atomic_write_json
 from .lip_sim import run_lip
 from .params import MpcParams, robot_params
@@ -79,7 +84,9 @@ def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> d
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
     plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), duration + mpc.preview_horizon_s + 1.0, left, -left)
     controller.reset(plan, np.zeros(2))
+    start = time.perf_counter()
     outcome, rec = run_lip(controller, duration)
+    lip_rtf = duration / (time.perf_counter() - start)
     trace = rec.finish(plan, {})
     skip = 100  # warm-up cycles
     result = {
@@ -89,6 +96,8 @@ def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> d
         "build_ms": timing_stats(trace["build_ms"][skip:]),
         "solve_ms": timing_stats(trace["solve_ms"][skip:]),
         "cycle_ms": timing_stats(trace["cycle_ms"][skip:]),
+        "lip_realtime_factor": round(lip_rtf, 1),
+        "robust": bench_robust(robot_name, mpc, cycles),
         "qp_size": None,
         "solvers": {},
     }
@@ -126,14 +135,53 @@ def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> d
     return result
 
 
-def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str]) -> dict:
+def bench_robust(robot_name: str, mpc: MpcParams, cycles: int) -> dict:
+    """Per-component cycle times of the robust controller on the LIP (all three modules).
+
+    Small pushes every 2 s (30 N, 0.1 s, alternating directions) keep the timing adaptation busy.
+    """
+    robot = robot_params(robot_name)
+    controller = RobustIsmpcController(robot, mpc)
+    dt = mpc.sampling_period_s
+    duration = (cycles + 100) * dt
+    left = np.array([0.0, 0.5 * robot.foot_spacing_m])
+    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), duration + mpc.preview_horizon_s + 1.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    scale = robot.mass_kg / 33.3
+    pushes = [ForceWindow(30.0 * scale * (-1) ** i, 0.0, 3.0 + 2.0 * i, 3.1 + 2.0 * i)
+              for i in range(int(duration // 2))]
+    start = time.perf_counter()
+    outcome, rec = run_lip(controller, duration, pushes)
+    rtf = duration / (time.perf_counter() - start)
+    trace = rec.finish(controller.plan, {})
+    skip = 100
+    parts = {name: timing_stats(trace[f"{name}_ms"][skip:]) for name in ("observer", "timing", "build", "solve", "cycle")}
+    other = trace["cycle_ms"] - trace["observer_ms"] - trace["timing_ms"] - trace["build_ms"] - trace["solve_ms"]
+    parts["other"] = timing_stats(other[skip:])
+    return {"fell": outcome.fell, "timing_adaptations": controller.timing_adaptations,
+            "lip_realtime_factor": round(rtf, 1), **{f"{k}_ms": v for k, v in parts.items()}}
+
+
+def bench_mujoco(robot_name: str = "g1", duration_s: float = 5.0) -> dict:
+    """Real-time factor of the MuJoCo closed loop (nominal IS-MPC walking 0.2 m/s, no video)."""
+    from .runner import RunSpec, run
+
+    summary = run(RunSpec(robot=robot_name, sim="mujoco", command=WalkCommand(0.2), duration_s=duration_s)).summary
+    return {"robot": robot_name, "duration_s": duration_s, "fell": summary["fell"],
+            "realtime_factor": summary.get("realtime_factor"), "cycle_ms": summary["cycle_ms"]}
+
+
+def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str], mujoco: bool = False) -> dict:
     """Benchmark every horizon; returns a JSON-serialisable dict."""
-    return {
+    result = {
         "robot": robot_name,
         "machine": machine(),
         "versions": versions(),
         "horizons": [bench_horizon(robot_name, C, cycles, solvers) for C in horizons],
     }
+    if mujoco:
+        result["mujoco"] = bench_mujoco()
+    return result
 
 
 def format_table(result: dict) -> str:
@@ -159,7 +207,23 @@ def format_table(result: dict) -> str:
             + "; ".join(solv) + " |"
         )
     lines.append("")
-    lines.append("Solve times per axis QP pair (x and y solved separately when the footsteps are not rotated).")
+    lines.append("Solve times per axis QP pair (x and y solved separately when the footsteps are not rotated);")
+    lines.append("solver columns: the same QPs (one axis) solved cold by each solver.")
+    lines += [
+        "",
+        "Robust controller (observer + restriction + timing adaptation), per component, median/p99 ms:",
+        "",
+        "| C | observer | timing adaptation | QP build | QP solve | other | whole cycle | LIP real-time factor |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for h in result["horizons"]:
+        r = h["robust"]
+        cells = [f"{r[k]['median']}/{r[k]['p99']}" for k in ("observer_ms", "timing_ms", "build_ms", "solve_ms", "other_ms", "cycle_ms")]
+        lines.append(f"| {h['C']} | " + " | ".join(cells) + f" | {r['lip_realtime_factor']}x |")
+    if "mujoco" in result:
+        m = result["mujoco"]
+        lines += ["", f"MuJoCo closed loop ({m['robot']}, {m['duration_s']} s, no video): "
+                  f"real-time factor {m['realtime_factor']}x, controller cycle median {m['cycle_ms']['median']} ms"]
     return "\n".join(lines)
 
 

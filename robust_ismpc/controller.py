@@ -49,6 +49,9 @@ class CycleInfo:
         Disturbance value used by the MPC (zero for nominal IS-MPC) [m/s^2].
     free_footsteps : int
         Number of footsteps optimised in this cycle.
+    observer_time_s, timing_time_s : float
+        Wall-clock time of the disturbance observer and of the step timing adaptation (check
+        and QP-STA) in this cycle [s] (0 when the module is off).
     """
 
     build_time_s: float = 0.0
@@ -59,6 +62,8 @@ class CycleInfo:
     dcm_m: np.ndarray = field(default_factory=lambda: np.zeros(2))
     disturbance_mps2: np.ndarray = field(default_factory=lambda: np.zeros(2))
     free_footsteps: int = 0
+    observer_time_s: float = 0.0
+    timing_time_s: float = 0.0
 
 
 class _RateLimitedLog:
@@ -289,7 +294,7 @@ class IsmpcController:
             values = [measurement.com_pos_m, measurement.com_vel_mps]
             if measurement.zmp_m is not None:
                 values.append(measurement.zmp_m)
-            if not all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in values):
+            if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
         self._anchor_landed(t_s, measurement)
         self._before_cycle(t_s, measurement)

@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -178,6 +179,7 @@ class RobustIsmpcController(IsmpcController):
         super().reset(plan, com_pos_m, com_vel_mps, left_foot_m, right_foot_m, t_s)
         self.nominal_T_ss_s = plan.T_ss_s.copy()
         self.timing = _TimingRecord()
+        self._bounds_cache = None
         if self.observer is not None:
             self.observer.reset(self.state[0], self.state[1], self.state[2])
             self.midrange.reset(0.0)
@@ -192,16 +194,21 @@ class RobustIsmpcController(IsmpcController):
         return self._restriction_m
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
+        self.info.observer_time_s = 0.0
         if self.observer is None or measurement is None:
             return
+        start = time.perf_counter()
         zmp = None if measurement.zmp_m is None else np.asarray(measurement.zmp_m, float)[:2]
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
         self.disturbance_estimate_mps2 = w_hat
         self.disturbance_mps2 = self.midrange.update(self.persistence.update(w_hat))
+        self.info.observer_time_s = time.perf_counter() - start
 
     # ------------------------------------------------------------------------------------
-    def feasibility_inputs(self, t_s: float, j: int, state: MpcState):
+    def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
         """Per-axis feasibility inputs in the frame of the current support footstep j-1.
+
+        ``zmp_m`` overrides the ZMP of ``state`` (world frame) when given.
 
         Returns
         -------
@@ -220,7 +227,7 @@ class RobustIsmpcController(IsmpcController):
         candidates = (plan.candidate_pos_m[idx] - origin) @ R  # rows Rᵀ(p - origin)
         nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
         sides = plan.side[idx].astype(float)
-        zmp_local = R.T @ (state.zmp_m - origin)
+        zmp_local = R.T @ ((state.zmp_m if zmp_m is None else zmp_m) - origin)
         periods = np.diff(td[idx])
         common = dict(
             support_pos_m=0.0, restriction_rate_mps=self.restriction_rate_mps, T_ds_s=float(plan.T_ds_s[j]),
@@ -240,6 +247,29 @@ class RobustIsmpcController(IsmpcController):
         )
         return inputs_x, inputs_y, R, origin
 
+    def _current_bounds(self, t: float, j: int, state: MpcState, remaining: float):
+        """Exact feasibility bounds for the current timing, in the support frame.
+
+        The bounds depend on the current ZMP only through the affine term w_0 x_z^k
+        (derivations §3.1), so the inputs are built once per step and plan change with the ZMP
+        at the support origin, and the ZMP term is added each cycle.
+        """
+        td = self.plan.touchdown_s
+        n = int(np.count_nonzero(td[j:] < t + self.mpc_params.preview_horizon_s - 1e-9))
+        key = (j, n, self._anchored_step, self.timing.adaptations)
+        if self._bounds_cache is None or self._bounds_cache[0] != key:
+            origin = self.plan.pos_m[j - 1]
+            inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state, zmp_m=origin)
+            self._bounds_cache = (key, inputs_x, inputs_y, R, origin)
+        _, inputs_x, inputs_y, R, origin = self._bounds_cache
+        zmp_local = R.T @ (state.zmp_m - origin)
+        w0 = inputs_x._consts["w0"]  # noqa: SLF001 - the affine ZMP coefficient of the bounds
+        lx, ux = feasibility_bounds_at(inputs_x, remaining)
+        ly, uy = feasibility_bounds_at(inputs_y, remaining)
+        bx = (lx + w0 * zmp_local[0], ux + w0 * zmp_local[0])
+        by = (ly + w0 * zmp_local[1], uy + w0 * zmp_local[1])
+        return bx, by, R, origin
+
     def _adapt_timing(self, state: MpcState, qp_infeasible: bool = False) -> bool:
         """Check feasibility and adapt the current touchdown if needed; True if it changed."""
         plan, t = self.plan, state.t_s
@@ -248,11 +278,9 @@ class RobustIsmpcController(IsmpcController):
         if j < 2 or t >= touchdown - 1e-9:
             self.timing.bounds_world_m = np.full(4, np.nan)
             return False
-        inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state)
-        dcm_local = R.T @ (state.dcm_m - origin)
         remaining = touchdown - t
-        bx = feasibility_bounds_at(inputs_x, remaining)
-        by = feasibility_bounds_at(inputs_y, remaining)
+        bx, by, R, origin = self._current_bounds(t, j, state, remaining)
+        dcm_local = R.T @ (state.dcm_m - origin)
         if abs(plan.yaw_rad[j - 1]) < 1e-12:
             self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
         else:
@@ -263,6 +291,7 @@ class RobustIsmpcController(IsmpcController):
             qp_infeasible=qp_infeasible,
         ):
             return False
+        inputs_x, inputs_y, _, _ = self.feasibility_inputs(t, j, state)
         result = solve_sta(
             t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]), dcm_local, inputs_x, inputs_y,
             self.sta_params,
@@ -280,8 +309,11 @@ class RobustIsmpcController(IsmpcController):
 
     def _adapt(self, state: MpcState) -> None:
         self.timing.adapted_this_cycle = False
+        self.info.timing_time_s = 0.0
         if "timing" in self.modules:
+            start = time.perf_counter()
             self._adapt_timing(state)
+            self.info.timing_time_s = time.perf_counter() - start
 
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         try:
@@ -295,4 +327,6 @@ class RobustIsmpcController(IsmpcController):
         return {
             "feasibility_m": self.timing.bounds_world_m,
             "timing_adapted": float(self.timing.adapted_this_cycle),
+            "observer_ms": 1e3 * self.info.observer_time_s,
+            "timing_ms": 1e3 * self.info.timing_time_s,
         }

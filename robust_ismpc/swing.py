@@ -100,22 +100,18 @@ def advance_swing(
         Apex height of the nominal profile [m].
     """
     T_rem = max(time_to_touchdown_s, 0.0)
-    xy, vxy, axy = quintic_step(
-        state.pos_m[:2], state.vel_mps[:2], state.acc_mps2[:2], np.asarray(target_xy_m, float), T_rem, dt_s
-    )
-    yaw, yaw_rate, yaw_acc = quintic_step(
-        np.array([state.yaw_rad]), np.array([state.yaw_rate_radps]), np.array([state.yaw_acc_radps2]),
-        np.array([target_yaw_rad]), T_rem, dt_s,
-    )
+    # x, y and yaw share one quintic evaluation (elementwise).
+    p0 = np.array([state.pos_m[0], state.pos_m[1], state.yaw_rad])
+    v0 = np.array([state.vel_mps[0], state.vel_mps[1], state.yaw_rate_radps])
+    a0 = np.array([state.acc_mps2[0], state.acc_mps2[1], state.yaw_acc_radps2])
+    p1 = np.array([target_xy_m[0], target_xy_m[1], target_yaw_rad], dtype=float)
+    p, v, a = quintic_step(p0, v0, a0, p1, T_rem, dt_s)
     s = 1.0 if dt_s >= T_rem else state.progress + (1.0 - state.progress) * dt_s / T_rem
     z = 16.0 * height_m * s**2 * (1.0 - s) ** 2
     s_rate = 0.0 if dt_s >= T_rem else (1.0 - s) / (T_rem - dt_s)
     dz = 16.0 * height_m * (2 * s * (1 - s) ** 2 - 2 * s**2 * (1 - s)) * s_rate
-    pos = np.array([xy[0], xy[1], z])
-    vel = np.array([vxy[0], vxy[1], dz])
-    acc = np.array([axy[0], axy[1], 0.0])
     return SwingState(
-        pos_m=pos, vel_mps=vel, acc_mps2=acc,
-        yaw_rad=float(yaw[0]), yaw_rate_radps=float(yaw_rate[0]), yaw_acc_radps2=float(yaw_acc[0]),
+        pos_m=np.array([p[0], p[1], z]), vel_mps=np.array([v[0], v[1], dz]), acc_mps2=np.array([a[0], a[1], 0.0]),
+        yaw_rad=float(p[2]), yaw_rate_radps=float(v[2]), yaw_acc_radps2=float(a[2]),
         progress=s,
     )

@@ -34,6 +34,8 @@ CHANNELS: dict[str, tuple[int, ...]] = {
     "feasibility_m": (4,),  # x_min, x_max, y_min, y_max of the DCM feasibility region
     "infeasible": (),
     "timing_adapted": (),
+    "observer_ms": (),
+    "timing_ms": (),
     "build_ms": (),
     "solve_ms": (),
     "cycle_ms": (),

@@ -164,3 +164,27 @@ def test_constant_sagittal_force_plus_coronal_impulse(impulse_t):
     assert nominal.fell and timing.fell
     assert not robust.fell
     assert trace["disturbance_est_mps2"][-1, 0] == pytest.approx(15.0 / ROBOT.mass_kg, rel=0.05)
+
+
+def test_cached_feasibility_bounds_equal_a_fresh_computation():
+    """The per-step cached bounds plus the ZMP term equal bounds computed from scratch."""
+    from robust_ismpc.feasibility import feasibility_bounds_at
+
+    controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",))
+    left = np.array([0.0, 0.5 * ROBOT.foot_spacing_m])
+    plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, left, -left)
+    controller.reset(plan, np.zeros(2))
+    checked = 0
+    for k in range(700):
+        t = k * 0.01
+        controller.step(t)
+        j = plan.step_at(t)
+        if j >= 2 and t < plan.touchdown_s[j] - 1e-9:
+            state = controller._mpc_state(t, None)
+            remaining = plan.touchdown_s[j] - t
+            bx, by, _, _ = controller._current_bounds(t, j, state, remaining)
+            fx, fy, _, _ = controller.feasibility_inputs(t, j, state)
+            np.testing.assert_allclose(bx, feasibility_bounds_at(fx, remaining), atol=1e-12)
+            np.testing.assert_allclose(by, feasibility_bounds_at(fy, remaining), atol=1e-12)
+            checked += 1
+    assert checked > 100
