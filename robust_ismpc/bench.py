@@ -22,13 +22,13 @@ import numpy as np
 
 from .controller import IsmpcController
 from .forces import ForceWindow
-from .robust import RobustIsmpcController
 from .io import atomic_write_bytes, atomic_write_json
 from .lip_sim import run_lip
 from .params import MpcParams, robot_params
 from .planner import WalkCommand, plan_footsteps
 from .qp import DaqpSolver, QpsolversSolver
 from .report import timing_stats
+from .robust import RobustIsmpcController
 
 
 class _RecordingSolver(DaqpSolver):
@@ -128,7 +128,7 @@ def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> d
         result["solvers"][name] = {"solve_ms": timing_stats(np.array(times)), "failures": len(errors),
                                    "problems": len(problems)}
     base = result["solvers"].get("daqp", {}).get("solve_ms", {}).get("median")
-    for name, entry in result["solvers"].items():
+    for entry in result["solvers"].values():
         med = entry.get("solve_ms", {}).get("median") if isinstance(entry, dict) else None
         if base and med:
             entry["ratio_to_daqp"] = round(med / base, 2)

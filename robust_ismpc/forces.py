@@ -9,8 +9,8 @@ run) and ``FX,FY@T:DUR`` for a push starting at T lasting DUR seconds.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

@@ -10,8 +10,8 @@ or when the CoM diverges from the ZMP by more than the CoM height.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

@@ -78,8 +78,9 @@ class Trace:
 
     def save(self, path: str | Path) -> None:
         """Write ``path`` (.npz) atomically."""
-        from .io import atomic_write_bytes
         import io as _io
+
+        from .io import atomic_write_bytes
 
         buffer = _io.BytesIO()
         arrays = {f"ch_{k}": v for k, v in self.channels.items()}

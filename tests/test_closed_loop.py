@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from fixtures import walking_controller
+
 from robust_ismpc.lip_sim import run_lip
 from robust_ismpc.params import MpcParams, robot_params
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from fixtures import straight_plan
+
 from robust_ismpc.exceptions import ParameterError, PlanError
 from robust_ismpc.footsteps import LEFT, RIGHT
 from robust_ismpc.params import robot_params

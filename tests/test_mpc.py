@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from fixtures import straight_plan
+
 from robust_ismpc.controller import IsmpcController
 from robust_ismpc.exceptions import InfeasibleMpc
 from robust_ismpc.mpc import IsmpcQp, MpcState

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 import qpsolvers
-
 from fixtures import straight_plan
+
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.params import robot_params
 from robust_ismpc.planner import WalkCommand, kinematic_box, plan_footsteps, rotation

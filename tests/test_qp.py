@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from fixtures import walking_controller
+
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.qp import DaqpSolver, QpProblem, QpsolversSolver, make_solver
 
