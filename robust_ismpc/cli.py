@@ -7,7 +7,6 @@ Exit status: 0 success (also when the robot fell: the outcome is in ``summary.js
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import sys
@@ -117,10 +116,31 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run the nominal and the robust controller on identical disturbances and write "
         "OUT/nominal/, OUT/robust/, OUT/comparison.json and OUT/comparison.png.",
     )
-    p_cmp.add_argument("scenario", nargs="?", default=None, help="optional named scenario (see `ismpc scenarios`)")
+    p_cmp.add_argument("scenario", nargs="?", default=None,
+                       help="optional named scenario: paper-bag, paper-ball, paper-push (see `ismpc scenarios`). "
+                       "A scenario fixes robot, simulator (mujoco), command, duration and disturbances; --duration "
+                       "overrides its duration, --force/--push ADD forces (unscaled, on the torso) to its own, "
+                       "--seed varies its push time and magnitude (seed 0 = the paper's values)")
     _add_run_arguments(p_cmp, with_controller=False)
-    p_cmp.add_argument("--robust-modules", default="observer,restriction,timing",
-                       help="modules of the robust run (default: all three)")
+    p_cmp.add_argument("--robust-modules", default=None,
+                       help="modules of the robust run (default: all three, or the scenario's)")
+    # Defaults resolved in cmd_compare, so that a scenario can tell "not given" from a value.
+    p_cmp.set_defaults(sim=None, robot=None, vx=None, vy=None, omega=None, duration=None)
+
+    sub.add_parser("scenarios", help="list the named scenarios of `ismpc compare`",
+                   description="List the named scenarios (the paper's experiments) with one line each.")
+
+    p_soak = sub.add_parser("soak", help="long walk with random pushes inside the robust envelope",
+                            description="Walk for a long time with the robust controller under random 0.1 s "
+                            "pushes (seeded) and report falls, solver failures and memory (OUT/soak.json).")
+    p_soak.add_argument("--sim", default="lip", help="lip or mujoco (default lip)")
+    p_soak.add_argument("--robot", default="g1", help="robot (g1)")
+    p_soak.add_argument("--minutes", type=_positive_float("minutes"), default=10.0, help="simulated minutes (10)")
+    p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
+                        help="largest push [N] (default 8 N scaled by robot mass)")
+    p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
+    p_soak.add_argument("--out", required=True, help="output directory")
+    p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
 
     p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
                              description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
@@ -129,6 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
     p_bench.add_argument("--solvers", default="daqp,osqp,proxqp,quadprog",
                          help="solvers to compare on the same QPs (those installed)")
+    p_bench.add_argument("--mujoco", action="store_true", help="also measure the MuJoCo G1 closed loop's real-time factor")
     p_bench.add_argument("--out", default=None, help="write bench.json (and bench.md) into this directory")
 
     p_sweep = sub.add_parser(
@@ -258,14 +279,70 @@ def cmd_run(args) -> int:
     return 0
 
 
+def _compare_scenario(args) -> int:
+    """``ismpc compare NAME``: both controllers on one seed of a named scenario."""
+    from dataclasses import replace
+
+    from .io import atomic_write_json
+    from .plotting import plot_comparison
+    from .runner import parse_modules
+    from .scenarios import get_scenario, run_scenario
+
+    scenario = get_scenario(args.scenario)
+    fixed = {"--robot": (args.robot, scenario.robot), "--sim": (args.sim, "mujoco")}
+    for flag, (given, value) in fixed.items():
+        if given is not None and given != value:
+            raise ParameterError(f"scenario {scenario.name} runs {flag} {value}; drop {flag} {given}")
+    for flag, given in (("--vx", args.vx), ("--vy", args.vy), ("--omega", args.omega), ("--delta-max", args.delta_max)):
+        if given is not None:
+            raise ParameterError(f"scenario {scenario.name} fixes its command and modules; {flag} is not allowed with it")
+    if args.robust_modules is not None:
+        scenario = replace(scenario, robust_modules=parse_modules("robust", args.robust_modules))
+    if args.duration is not None:
+        scenario = replace(scenario, duration_s=args.duration)
+    args.duration = scenario.duration_s
+    out = _prepare_out(args.out, args.overwrite)
+    result = run_scenario(scenario, seed=args.seed, extra_forces=_forces(args),
+                          progress=lambda label: _progress(args, label), video_dir=out if args.video else None)
+    for label, run_result in result.results.items():
+        (out / label).mkdir(exist_ok=True)
+        _end_progress(args)
+        _write_run(run_result, out / label, title=f"{scenario.name} seed {args.seed}: {label}")
+        print(_one_line(run_result.summary))
+    comparison = result.comparison
+    atomic_write_json(out / "comparison.json", comparison)
+    traces = [r.trace for r in result.results.values()]
+    labels = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
+    plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}")
+    dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
+    print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
+          f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "
+          f"nominal {dev['nominal']} m, robust {dev['robust']} m; expected outcome: "
+          f"{'yes' if comparison['expected_outcome'] else 'NO'}")
+    print(f"wrote {out / 'comparison.json'}, {out / 'comparison.png'}, {out / 'nominal'}, {out / 'robust'}")
+    return 0
+
+
+def cmd_scenarios(args) -> int:
+    from .scenarios import SCENARIOS
+
+    width = max(len(n) for n in SCENARIOS)
+    for name, scenario in SCENARIOS.items():
+        print(f"{name:<{width}}  {scenario.summary}")
+    return 0
+
+
 def cmd_compare(args) -> int:
     from .io import atomic_write_json
     from .plotting import plot_comparison
     from .runner import parse_modules, run
 
     if args.scenario is not None:
-        raise ParameterError(f"unknown scenario {args.scenario!r}; no named scenarios are available yet")
-    robust_modules = parse_modules("robust", args.robust_modules)
+        return _compare_scenario(args)
+    for name, default in (("sim", "lip"), ("robot", "g1"), ("vx", 0.2), ("vy", 0.0), ("omega", 0.0), ("duration", 10.0)):
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+    robust_modules = parse_modules("robust", args.robust_modules or "observer,restriction,timing")
     out = _prepare_out(args.out, args.overwrite)
     results = {}
     for label, modules in (("nominal", ()), ("robust", robust_modules)):
@@ -290,6 +367,28 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_soak(args) -> int:
+    from .io import atomic_write_json
+    from .soak import SoakSpec, run_soak
+
+    spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
+                    seed=args.seed)
+    out = _prepare_out(args.out, args.overwrite)
+    args.duration = spec.duration_s
+    args.quiet = False
+    report, result = run_soak(spec, progress=_progress(args, "soak"))
+    _end_progress(args)
+    atomic_write_json(out / "soak.json", report)
+    _write_run(result, out)
+    state = "FELL" if report["fell"] else "no fall"
+    print(f"soak {spec.robot}/{spec.sim}: {report['simulated_s']:.0f} s simulated in {report['wall_s']:.0f} s, "
+          f"{report['pushes']} pushes (max {report['push_max_n']:.1f} N), {state}, "
+          f"{report['qp_infeasible_count']} infeasible QPs, RSS {report['rss_mb'][0]['rss_mb']} -> "
+          f"{report['rss_mb'][-1]['rss_mb']} MB (trace {report['trace_mb']} MB)")
+    print(f"wrote {out / 'soak.json'}")
+    return 0 if not report["fell"] else 1
+
+
 def cmd_bench(args) -> int:
     from .bench import format_table, run_bench, write_bench
 
@@ -302,7 +401,7 @@ def cmd_bench(args) -> int:
     if args.cycles < 10:
         raise ParameterError(f"--cycles must be >= 10, got {args.cycles}")
     solvers = [s.strip() for s in args.solvers.split(",") if s.strip()]
-    result = run_bench(args.robot, horizons, args.cycles, solvers)
+    result = run_bench(args.robot, horizons, args.cycles, solvers, mujoco=args.mujoco)
     print(format_table(result))
     if args.out:
         paths = write_bench(result, Path(args.out))
@@ -380,7 +479,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep}
+    handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep, "soak": cmd_soak,
+                "scenarios": cmd_scenarios}
     try:
         return handlers[args.command](args)
     except IsmpcError as exc:

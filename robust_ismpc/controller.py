@@ -188,6 +188,7 @@ class IsmpcController:
         self.last_plan: MpcPlan | None = None
         self.last_zmp_vel_mps = np.zeros(2)
         self._anchored_step = 1
+        self._swing_step: dict[int, int] = {}
         self.fallback_cycles = 0
         self.infeasible_count = 0
         self.info = CycleInfo()
@@ -318,7 +319,8 @@ class IsmpcController:
         swinging = j >= 2 and t_s < touchdown - 1e-9
         if swinging:
             swing_side = int(plan.side[j])
-            if self.feet[swing_side].progress >= 1.0:  # the foot landed last step: lift off anew
+            if self._swing_step.get(swing_side) != j:  # a new swing of this foot: lift off anew
+                self._swing_step[swing_side] = j
                 self.feet[swing_side].progress = 0.0
             self.feet[swing_side] = advance_swing(
                 self.feet[swing_side], plan.pos_m[j], plan.yaw_rad[j], touchdown - t_s, self.dt,

@@ -59,6 +59,13 @@ class RobustParams:
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
+    timing_uses_measured_dcm : bool
+        When a measurement is given, the step timing check uses the measured DCM
+        (x_c + ẋ_c/η + w̃/η² from the measured CoM) instead of the MPC's state. On the LIP with
+        full state feedback the two are equal; on a robot whose MPC state is the internal model
+        (feedback gains below 1) only the measured DCM shows a push. Off by default: on OP3 in
+        MuJoCo (paper-ball, seed 0) it re-timed steps from the noisy measured DCM and the robot
+        fell at 4.1 s, while with it off the ball hit went unnoticed and both controllers walked.
     sta : StaParams or None
         Step timing adaptation settings; None: defaults with the safety margin (and trigger
         distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
@@ -73,6 +80,7 @@ class RobustParams:
     observer_zmp_pole: float = 0.5
     persistence_s: float = 0.12
     midrange_rate_mps3: float = 10.0
+    timing_uses_measured_dcm: bool = False
     sta: StaParams | None = None
 
     def __post_init__(self) -> None:
@@ -180,6 +188,7 @@ class RobustIsmpcController(IsmpcController):
         self.nominal_T_ss_s = plan.T_ss_s.copy()
         self.timing = _TimingRecord()
         self._bounds_cache = None
+        self._measured_dcm = None
         if self.observer is not None:
             self.observer.reset(self.state[0], self.state[1], self.state[2])
             self.midrange.reset(0.0)
@@ -194,6 +203,11 @@ class RobustIsmpcController(IsmpcController):
         return self._restriction_m
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
+        self._measured_dcm = None
+        if measurement is not None and self.robust_params.timing_uses_measured_dcm:
+            com = np.asarray(measurement.com_pos_m, float)[:2]
+            vel = np.asarray(measurement.com_vel_mps, float)[:2]
+            self._measured_dcm = com + vel / self.eta
         self.info.observer_time_s = 0.0
         if self.observer is None or measurement is None:
             return
@@ -280,7 +294,10 @@ class RobustIsmpcController(IsmpcController):
             return False
         remaining = touchdown - t
         bx, by, R, origin = self._current_bounds(t, j, state, remaining)
-        dcm_local = R.T @ (state.dcm_m - origin)
+        dcm = state.dcm_m
+        if self._measured_dcm is not None:
+            dcm = self._measured_dcm + self.disturbance_mps2 / self.eta**2
+        dcm_local = R.T @ (dcm - origin)
         if abs(plan.yaw_rad[j - 1]) < 1e-12:
             self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
         else:

@@ -100,6 +100,8 @@ def advance_swing(
         Apex height of the nominal profile [m].
     """
     T_rem = max(time_to_touchdown_s, 0.0)
+    if T_rem < dt_s + 1e-9:  # last tick (absorbs rounding of the touchdown time): land exactly
+        T_rem = dt_s
     # x, y and yaw share one quintic evaluation (elementwise).
     p0 = np.array([state.pos_m[0], state.pos_m[1], state.yaw_rad])
     v0 = np.array([state.vel_mps[0], state.vel_mps[1], state.yaw_rate_radps])

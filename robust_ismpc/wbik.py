@@ -18,7 +18,9 @@ with the reference; feedback on the real CoM is the MPC's job (it receives the m
 Re-seeding the IK base from the measured base each cycle (``IkSettings.base_feedback``) is
 available; in the standing and 3 cm CoM-shift tests on G1 and OP3 it changed the CoM tracking by
 less than 0.5 mm, so it is off by default. What does matter is the servo sag under load, which
-the loop removes with :meth:`WholeBodyIk.static_torques` as a feedforward.
+the loop removes with :meth:`WholeBodyIk.static_torques` as a feedforward, or with
+:meth:`WholeBodyIk.inverse_dynamics_torques` (the same with the reference motion's velocities and
+accelerations) when the dynamics of the swing leg matter (G1 walking).
 """
 
 from __future__ import annotations
@@ -126,6 +128,21 @@ class IkErrors:
         return max(self.com_m, self.left_sole_m, self.right_sole_m)
 
 
+def _wrench_cop(points: list[np.ndarray], force: np.ndarray) -> np.ndarray | None:
+    """Centre of pressure on the floor z = 0 of sole wrenches ``force`` (6 per point: force,
+    moment about the point, world frame); None without vertical load."""
+    fz = 0.0
+    moment = np.zeros(2)
+    for i, point in enumerate(points):
+        f, tau = force[6 * i : 6 * i + 3], force[6 * i + 3 : 6 * i + 6]
+        # moment about the floor point below ``point``: tau + (0, 0, point_z) x f
+        mx = tau[0] - point[2] * f[1]
+        my = tau[1] + point[2] * f[0]
+        fz += f[2]
+        moment += np.array([point[0] * f[2] - my, point[1] * f[2] + mx])
+    return moment / fz if fz > 1e-9 else None
+
+
 class WholeBodyIk:
     """Differential IK of one robot, stepping an internal reference configuration.
 
@@ -182,6 +199,8 @@ class WholeBodyIk:
         self._foot_bodies = {
             side: frame_body(self.model, spec.foot_frame_type, fid) for side, fid in self._foot_ids.items()
         }
+        self._dyn_data = mujoco.MjData(self.model)
+        self.last_contact_cop_m: np.ndarray | None = None
         self.last_solve_time_s = 0.0
 
     # ------------------------------------------------------------------ state
@@ -297,7 +316,7 @@ class WholeBodyIk:
         return self.solve(dt_s, measured_base_qpos)
 
     def static_torques(self, left_load: float, left_contact: bool = True, right_contact: bool = True) -> np.ndarray:
-        """Generalised forces that hold the reference configuration still under gravity.
+        r"""Generalised forces that hold the reference configuration still under gravity.
 
         The sole wrenches are the weighted minimum-norm solution of the floating-base
         equilibrium :math:`J_{c,b}^T f = g_b`, with the vertical load shared ``left_load`` :
@@ -316,29 +335,74 @@ class WholeBodyIk:
         ndarray, shape (model.nv,)
             Torques [N m] (zero on the floating-base coordinates).
         """
-        m, d = self.model, self.configuration.data
-        gravity = np.empty(m.nv)
-        mujoco.mj_rne(m, d, 0, gravity)
+        return self.inverse_dynamics_torques(None, None, left_load, left_contact, right_contact)
+
+    def inverse_dynamics_torques(
+        self,
+        qvel: np.ndarray | None,
+        qacc: np.ndarray | None,
+        left_load: float,
+        left_contact: bool = True,
+        right_contact: bool = True,
+    ) -> np.ndarray:
+        r"""Joint torques that realise the reference configuration's motion with the feet as contacts.
+
+        As :meth:`static_torques`, with the bias :math:`g` replaced by the inverse dynamics
+        :math:`M(q)\ddot q + C(q, \dot q)\dot q + g(q)` of the reference configuration moving with
+        ``qvel`` and ``qacc``: the sole wrenches :math:`f` solve the base rows (weighted
+        minimum norm in double support, exactly in single support) and
+        :math:`\tau = (M\ddot q + h)_j - J_{c,j}^T f`.
+
+        Parameters
+        ----------
+        qvel, qacc : ndarray, shape (model.nv,), or None
+            Velocity and acceleration of the reference configuration (None: zero).
+        left_load : float
+            Share of the vertical load on the left foot in double support, in [0, 1].
+        left_contact, right_contact : bool
+            Which feet carry load (at least one; none gives zero torques).
+
+        Returns
+        -------
+        ndarray, shape (model.nv,)
+            Torques [N m] (zero on the floating-base coordinates).
+        """
+        m = self.model
+        if qvel is None and qacc is None:
+            d = self.configuration.data
+            bias = np.empty(m.nv)
+            mujoco.mj_rne(m, d, 0, bias)
+        else:
+            d = self._dyn_data
+            d.qpos[:] = self.configuration.q
+            d.qvel[:] = 0.0 if qvel is None else qvel
+            d.qacc[:] = 0.0 if qacc is None else qacc
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            mujoco.mj_comVel(m, d)
+            bias = np.empty(m.nv)
+            mujoco.mj_rne(m, d, 1, bias)
         sides = [s for s, flag in (("left", left_contact), ("right", right_contact)) if flag]
         if not sides:
             return np.zeros(m.nv)
-        jac_rows, weights = [], []
+        jac_rows, weights, points = [], [], []
         jacp, jacr = np.empty((3, m.nv)), np.empty((3, m.nv))
         for side in sides:
-            pos, _ = self.sole_pose(side)
-            body = self._foot_bodies[side]
-            mujoco.mj_jac(m, d, jacp, jacr, pos, body)
+            pos, rot = foot_frame_pose(m, d, self.spec.foot_frame_type, self._foot_ids[side])
+            points.append(pos + rot @ self._offsets[side])
+            mujoco.mj_jac(m, d, jacp, jacr, points[-1], self._foot_bodies[side])
             jac_rows.append(np.vstack([jacp, jacr]))
             share = left_load if side == "left" else 1.0 - left_load
             weights.append(np.full(6, min(max(share, 0.02), 1.0)))
         jac = np.vstack(jac_rows)  # (6 k, nv)
         w = np.concatenate(weights)
         jb = jac[:, :6]  # base columns
-        # f = W jb (jb^T W jb)^-1 g_b  (W = diag(load share): heavier foot takes more)
+        # f = W jb (jb^T W jb)^-1 b_b  (W = diag(load share): heavier foot takes more)
         lhs = jb.T @ (w[:, None] * jb)
-        force = w * (jb @ np.linalg.solve(lhs, gravity[:6]))
-        torque = gravity - jac.T @ force
+        force = w * (jb @ np.linalg.solve(lhs, bias[:6]))
+        torque = bias - jac.T @ force
         torque[:6] = 0.0
+        self.last_contact_cop_m = _wrench_cop(points, force)
         return torque
 
     def errors(self) -> IkErrors:
@@ -370,6 +434,8 @@ class ActuatorMap:
         For actuator ``a``, the index in the IK ``qpos`` / ``qvel`` of its joint.
     kp : ndarray, shape (nu,)
         Position gains of the servos [N m/rad] (meaningless for motors).
+    kd : ndarray, shape (nu,)
+        Velocity gains of the servos [N m s/rad] (``-biasprm[2]``; 0 for motors).
     sim_qpos_index, sim_dof_index : ndarray of int, shape (nu,)
         Index of the actuated joint in the simulation ``qpos`` / ``qvel``.
     is_position : ndarray of bool, shape (nu,)
@@ -404,6 +470,7 @@ class ActuatorMap:
         self.ik_qpos_index = np.array(ik_q, dtype=int)
         self.ik_dof_index = np.array(ik_v, dtype=int)
         self.kp = sim_model.actuator_gainprm[:, 0].copy()
+        self.kd = np.where(is_pos, -sim_model.actuator_biasprm[:, 2], 0.0)
         self.sim_qpos_index = np.array(sim_q, dtype=int)
         self.sim_dof_index = np.array(sim_v, dtype=int)
         self.is_position = np.array(is_pos, dtype=bool)

@@ -72,22 +72,15 @@ def test_force_reaches_the_trace() -> None:
 # only leave the nominal sole outline when a foot tilts onto an edge (contact points of the
 # spheres / box corners move by a few mm); we allow COP_TOLERANCE_M before counting a tick as
 # "outside", and at most 10 % of the run outside (short transients at touchdown).
-_G1_FALLS = pytest.mark.xfail(
-    strict=True,
-    reason="known gap: G1 falls before 30 s (forward 18.6 s, backward 19.8 s, sideways 5.8 s, turning 8.8 s). "
-    "The LIP model runs open loop (any MPC state feedback makes the QP infeasible on position servos) and "
-    "the swing leg's dynamics, not in the LIP, push the stance foot's CoP to its toe; the CoM drifts from "
-    "the plan until the robot tips. Remove when fixed.",
-)
 _OP3_TURN_FALLS = pytest.mark.xfail(
     strict=True,
-    reason="known gap: OP3 turning on the spot at 0.3 rad/s falls at 28 s (open-loop drift, as for G1).",
+    reason="known gap: OP3 turning on the spot at 0.3 rad/s falls at 28 s (27.5 s with the swing fix).",
 )
 LONG_WALKS = [
-    pytest.param("g1", WalkCommand(0.2), marks=_G1_FALLS),
-    pytest.param("g1", WalkCommand(-0.15), marks=_G1_FALLS),
-    pytest.param("g1", WalkCommand(0.0, 0.1), marks=_G1_FALLS),
-    pytest.param("g1", WalkCommand(0.0, 0.0, 0.3), marks=_G1_FALLS),
+    ("g1", WalkCommand(0.2)),
+    ("g1", WalkCommand(-0.15)),
+    ("g1", WalkCommand(0.0, 0.1)),
+    ("g1", WalkCommand(0.0, 0.0, 0.3)),
     ("op3", WalkCommand(0.15)),
     ("op3", WalkCommand(-0.1)),
     ("op3", WalkCommand(0.0, 0.05)),
@@ -109,6 +102,38 @@ def test_long_walk(robot: str, command: WalkCommand) -> None:
     violation = result.trace["zmp_violation_m"]
     assert np.nanmax(violation) < 0.01
     assert COP_TOLERANCE_M > 0
+
+
+def test_inverse_dynamics_feedforward_at_rest_is_static() -> None:
+    """At rest the inverse-dynamics feedforward equals the static torques, and its contact CoP is the
+    CoM projection; a swing-leg acceleration moves that CoP (the effect the feedforward supplies)."""
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.wbik import WholeBodyIk
+
+    ik = WholeBodyIk(load_robot("g1"))
+    nv = ik.model.nv
+    static = ik.static_torques(0.5)
+    dynamic = ik.inverse_dynamics_torques(np.zeros(nv), np.zeros(nv), 0.5)
+    np.testing.assert_allclose(dynamic, static, atol=1e-9)
+    np.testing.assert_allclose(ik.last_contact_cop_m, ik.com_m()[:2], atol=1e-9)
+    qacc = np.zeros(nv)
+    qacc[ik.model.joint("right_hip_pitch_joint").dofadr[0]] = -20.0  # swing the right thigh forward
+    ik.inverse_dynamics_torques(np.zeros(nv), qacc, 1.0, True, False)
+    assert abs(ik.last_contact_cop_m[0] - ik.com_m()[0]) > 0.01
+
+
+def test_dynamic_feedforward_adds_servo_damping_term() -> None:
+    """With dynamic_feedforward a position servo's target carries + kd q̇_ref / kp."""
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.mujoco_loop import LoopSettings, MujocoSimulation
+
+    sim = MujocoSimulation(load_robot("g1"), settings=LoopSettings(dynamic_feedforward=True))
+    act = sim.actuators
+    assert np.all(act.kd[act.is_position] > 0)
+    sim._target_vel = np.full(sim.model.nu, 0.1)
+    sim._apply_targets()
+    expected = sim._targets + (sim._feedforward + act.kd * 0.1) / act.kp
+    np.testing.assert_allclose(sim.data.ctrl, expected)
 
 
 def _gl_available() -> str | None:

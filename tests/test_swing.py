@@ -59,3 +59,31 @@ def test_quintic_boundary_conditions():
     """quintic_step honours the end state and returns it past the end."""
     p, v, a = quintic_step(np.array([0.0]), np.array([1.0]), np.array([0.0]), np.array([1.0]), 0.5, 0.5)
     assert p[0] == 1.0 and v[0] == 0.0 and a[0] == 0.0
+
+
+def test_rounded_touchdown_still_lands_and_next_swing_lifts():
+    """A touchdown a hair after the last tick still lands exactly (progress 1)."""
+    state = SwingState.at_rest(np.zeros(2), 0.0)
+    state = advance_swing(state, np.array([0.1, 0.0]), 0.0, DT + 1e-13, DT, 0.05)
+    assert state.progress == 1.0 and state.pos_m[2] == 0.0
+
+
+def test_every_swing_of_a_long_walk_lifts_the_foot():
+    """In a 30 s walk every single support lifts the swing foot to about the swing height."""
+    import sys, os
+
+    sys.path.insert(0, os.path.dirname(__file__))
+    from fixtures import walking_controller
+
+    controller = walking_controller("g1", 0.2, duration_s=30.0)
+    plan = controller.plan
+    peaks: dict[int, float] = {}
+    for k in range(3000):
+        ref = controller.step(k * 0.01)
+        j = ref.step_index
+        if j >= 2:
+            z = max(ref.left_foot.pos_m[2], ref.right_foot.pos_m[2])
+            peaks[j] = max(peaks.get(j, 0.0), z)
+    done = [j for j in peaks if plan.touchdown_s[j] < 29.0]
+    assert len(done) > 35
+    assert min(peaks[j] for j in done) > 0.9 * controller.robot.swing_height_m

@@ -158,9 +158,14 @@ class ForceSchedule:
                 raise ModelError(f"disturbance body {name!r} not found in the model")
             self._forces.append((force, body_id))
         self._bodies = sorted({b for _, b in self._forces})
+        self._on_robot = {b for _, b in self._forces if not model.body(b).name.startswith(DISTURBANCE_PREFIX)}
 
     def apply(self, data: mujoco.MjData, t_s: float) -> np.ndarray:
-        """Write the forces active at ``t_s`` (and zero the others); returns the total force (3,) [N]."""
+        """Write the forces active at ``t_s`` (and zero the others).
+
+        Returns the total force on robot bodies (3,) [N]; forces on added scene bodies (the
+        holding force of a :class:`SwingingBall`) are applied but not counted.
+        """
         total = np.zeros(3)
         for b in self._bodies:
             data.xfrc_applied[b, :] = 0.0
@@ -168,7 +173,8 @@ class ForceSchedule:
             if force.is_active(t_s):
                 vec = force.vector_n()
                 data.xfrc_applied[b, :3] += vec
-                total += vec
+                if b in self._on_robot:
+                    total += vec
         return total
 
     def __len__(self) -> int:
@@ -238,6 +244,11 @@ class SwingingBall:
         Hinge axis, world frame (normalised).
     name : str
         Suffix of the body name (several balls need distinct names).
+    release_s : float
+        Time at which the ball is let go [s]. Until then a horizontal force on the ball,
+        ``m g tan(release_angle_rad)`` away from the vertical, holds it at rest at the release
+        angle (:func:`scene_forces`; a static equilibrium of the rod pendulum). 0: free from the
+        start.
     """
 
     pivot_m: tuple[float, float, float]
@@ -247,10 +258,18 @@ class SwingingBall:
     release_angle_rad: float = 0.5
     hinge_axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
     name: str = "ball"
+    release_s: float = 0.0
 
     def __post_init__(self) -> None:
         _positive("SwingingBall", rope_length_m=self.rope_length_m, mass_kg=self.mass_kg, radius_m=self.radius_m)
-        _finite("SwingingBall", release_angle_rad=self.release_angle_rad)
+        _finite("SwingingBall", release_angle_rad=self.release_angle_rad, release_s=self.release_s)
+        if not (math.isfinite(self.release_s) and self.release_s >= 0):
+            raise ParameterError(f"SwingingBall.release_s must be a finite number >= 0, got {self.release_s!r}")
+        if self.release_s > 0 and not abs(self.release_angle_rad) < 0.5 * math.pi - 1e-3:
+            raise ParameterError(
+                f"SwingingBall.release_angle_rad must be within (-pi/2, pi/2) to be held until release_s, "
+                f"got {self.release_angle_rad!r}"
+            )
         object.__setattr__(self, "pivot_m", _vec3("SwingingBall", "pivot_m", self.pivot_m))
         axis = np.asarray(_vec3("SwingingBall", "hinge_axis", self.hinge_axis))
         norm = float(np.linalg.norm(axis))
@@ -394,3 +413,152 @@ def payload_body_names(items: Sequence[SceneItem]) -> list[str]:
 def ball_body_names(items: Sequence[SceneItem]) -> list[str]:
     """Body names of the swinging balls of ``items``, in order."""
     return [_ball_body_name(item) for item in items if isinstance(item, SwingingBall)]
+
+
+def _ball_hold_direction(ball: SwingingBall) -> np.ndarray:
+    """Unit horizontal direction from the vertical below the pivot to the ball at its release angle."""
+    axis = np.asarray(ball.hinge_axis)
+    down = np.array([0.0, 0.0, -1.0])
+    # Rotating the hanging rod by the release angle about the hinge axis (Rodrigues).
+    a = ball.release_angle_rad
+    rod = down * math.cos(a) + np.cross(axis, down) * math.sin(a) + axis * np.dot(axis, down) * (1 - math.cos(a))
+    horizontal = np.array([rod[0], rod[1], 0.0])
+    norm = float(np.linalg.norm(horizontal))
+    return horizontal / norm if norm > 1e-12 else np.zeros(3)
+
+
+def scene_forces(items: Sequence[SceneItem], gravity_mps2: float = 9.81) -> list[Force]:
+    """Forces that belong to the scene items: the holding force of each ball until its release.
+
+    A rod pendulum of mass m at angle a from the vertical is at rest under a horizontal force of
+    magnitude ``m g tan(a)`` pointing away from the vertical; the force ends at ``release_s``
+    and the ball starts swinging from rest.
+
+    Parameters
+    ----------
+    items : sequence of Payload or SwingingBall
+    gravity_mps2 : float
+        Gravity magnitude of the scene [m/s²].
+
+    Returns
+    -------
+    list of Force
+        With ``body`` naming the ball body (add them to the disturbances of the simulation).
+    """
+    forces = []
+    for item in items:
+        if isinstance(item, SwingingBall) and item.release_s > 0 and abs(item.release_angle_rad) > 0:
+            direction = _ball_hold_direction(item)
+            magnitude = item.mass_kg * gravity_mps2 * math.tan(abs(item.release_angle_rad))
+            vec = magnitude * direction
+            forces.append(Force(float(vec[0]), float(vec[1]), 0.0, item.release_s, body=_ball_body_name(item)))
+    return forces
+
+
+class SceneMonitor:
+    """Record what the scene items do during a run (called once per control tick).
+
+    For every :class:`SwingingBall`: the ticks at which it touches the robot, the largest normal
+    contact force, and the impulse it delivered, from the change of the ball's horizontal momentum
+    between the last tick before the first contact and the first tick after the last contact of
+    the first hit (gravity and the rod tension are nearly vertical at the bottom of the swing).
+    A hit that starts and ends between two ticks is recognised by the jump of the ball's velocity
+    (``max_contact_force_n`` is then 0: no contact was sampled).
+    For every :class:`Payload`: the largest swing angle of the rope from the vertical.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The scene built by :func:`build_scene` from ``items``.
+    items : sequence of Payload or SwingingBall
+    """
+
+    #: Change of a ball's horizontal velocity within one tick that counts as a hit even when no
+    #: contact is seen at the tick (the rope and gravity change it by about 0.2 m/s per 10 ms) [m/s].
+    jump_mps = 0.5
+
+    def __init__(self, model: mujoco.MjModel, items: Sequence[SceneItem]) -> None:
+        self.model = model
+        self.items = tuple(items)
+        self._balls = []
+        for item in self.items:
+            if isinstance(item, SwingingBall):
+                body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, _ball_body_name(item))
+                geoms = {g for g in range(model.ngeom) if model.geom_bodyid[g] == body}
+                self._balls.append({"item": item, "body": body, "geoms": geoms, "contact_t": [],
+                                    "max_force_n": 0.0, "vel_before": None, "vel_after": None,
+                                    "t_before": None, "t_after": None, "prev_vel": None, "prev_t": None})
+        self._robot_geoms = {
+            g for g in range(model.ngeom)
+            if model.geom_bodyid[g] != 0 and not model.body(model.body_rootid[model.geom_bodyid[g]]).name.startswith(
+                DISTURBANCE_PREFIX) and not model.body(model.geom_bodyid[g]).name.startswith(DISTURBANCE_PREFIX)
+        }
+        self._payloads = [
+            (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name), item.rope_length_m)
+            for name, item in zip(payload_body_names(self.items), [i for i in self.items if isinstance(i, Payload)])
+        ]
+        self._payload_max_angle = [0.0] * len(self._payloads)
+        self._payload_angles: list[list[float]] = [[] for _ in self._payloads]
+        self._force = np.zeros(6)
+
+    def update(self, data: mujoco.MjData, t_s: float) -> None:
+        """Record the state at time ``t_s`` (after a physics step)."""
+        for ball in self._balls:
+            force = 0.0
+            for i in range(data.ncon):
+                c = data.contact[i]
+                g1, g2 = int(c.geom1), int(c.geom2)
+                if (g1 in ball["geoms"] and g2 in self._robot_geoms) or (g2 in ball["geoms"] and g1 in self._robot_geoms):
+                    mujoco.mj_contactForce(self.model, data, i, self._force)
+                    force += abs(float(self._force[0]))
+            vel = self._ball_centre_velocity(data, ball)
+            # A hard hit can begin and end between two ticks: also count a jump of the ball's
+            # horizontal velocity that the rope and gravity cannot produce in one tick.
+            jump = ball["prev_vel"] is not None and float(np.linalg.norm(vel[:2] - ball["prev_vel"][:2])) > self.jump_mps
+            if force > 0 or (jump and ball["vel_after"] is None):
+                if not ball["contact_t"]:
+                    ball["vel_before"], ball["t_before"] = ball["prev_vel"], ball["prev_t"]
+                ball["contact_t"].append(t_s)
+                ball["max_force_n"] = max(ball["max_force_n"], force)
+                if force == 0 and ball["vel_after"] is None:
+                    ball["vel_after"], ball["t_after"] = vel, t_s
+            elif ball["contact_t"] and ball["vel_after"] is None:
+                ball["vel_after"], ball["t_after"] = vel, t_s
+            ball["prev_vel"], ball["prev_t"] = vel, t_s
+        for k, (body, _length) in enumerate(self._payloads):
+            rod = data.xpos[body] - data.xipos[body]  # pivot minus payload centre (rope direction, upwards)
+            norm = float(np.linalg.norm(rod))
+            angle = math.acos(max(-1.0, min(1.0, rod[2] / norm))) if norm > 1e-9 else 0.0
+            self._payload_angles[k].append(angle)
+            self._payload_max_angle[k] = max(self._payload_max_angle[k], angle)
+
+    def _ball_centre_velocity(self, data: mujoco.MjData, ball: dict) -> np.ndarray:
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(self.model, data, mujoco.mjtObj.mjOBJ_BODY, ball["body"], vel, 0)
+        return vel[3:].copy()  # linear velocity at the body CoM (the ball centre), world frame
+
+    def summary(self) -> dict:
+        """JSON-ready summary: per ball the contact window, peak force and impulse; per payload the swing."""
+        balls = []
+        for ball in self._balls:
+            item = ball["item"]
+            entry = {
+                "name": item.name, "mass_kg": item.mass_kg, "release_s": item.release_s,
+                "hit": bool(ball["contact_t"]),
+                "first_contact_s": round(ball["contact_t"][0], 4) if ball["contact_t"] else None,
+                "last_contact_s": round(ball["contact_t"][-1], 4) if ball["contact_t"] else None,
+                "contact_ticks": len(ball["contact_t"]),
+                "max_contact_force_n": round(ball["max_force_n"], 4),
+                "impulse_ns": None, "impact_speed_mps": None,
+            }
+            if ball["vel_before"] is not None and ball["vel_after"] is not None:
+                dp = -item.mass_kg * (ball["vel_after"][:2] - ball["vel_before"][:2])
+                entry["impulse_ns"] = [round(float(v), 5) for v in dp]
+                entry["impact_speed_mps"] = round(float(np.linalg.norm(ball["vel_before"])), 4)
+            balls.append(entry)
+        payloads = [
+            {"max_swing_rad": round(a, 4),
+             "swing_std_rad": round(float(np.std(angles)), 4) if angles else 0.0}
+            for a, angles in zip(self._payload_max_angle, self._payload_angles)
+        ]
+        return {"balls": balls, "payloads": payloads}

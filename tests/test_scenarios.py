@@ -1,0 +1,164 @@
+"""Named scenarios (the paper's three experiments): definitions, scene objects, one comparison."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from robust_ismpc.cli import main  # noqa: E402
+from robust_ismpc.exceptions import ParameterError  # noqa: E402
+from robust_ismpc.runner import MODULES  # noqa: E402
+from robust_ismpc.scenarios import (  # noqa: E402
+    SCENARIOS,
+    BallSpec,
+    ScaledForce,
+    Scenario,
+    Variation,
+    get_scenario,
+    pendulum_swing_time,
+    realise,
+    run_scenario,
+)
+
+
+def test_scenario_definitions_are_valid() -> None:
+    """The three paper scenarios exist, use known modules and robots, and realise for several seeds."""
+    assert set(SCENARIOS) == {"paper-bag", "paper-ball", "paper-push"}
+    assert get_scenario("paper-ball").robust_modules == ("timing",)
+    for scenario in SCENARIOS.values():
+        assert set(scenario.robust_modules) <= set(MODULES)
+        run = realise(scenario, seed=0)
+        assert run.nominal.modules == () and run.robust.modules == scenario.robust_modules
+        assert run.nominal.forces == run.robust.forces
+
+
+def test_unknown_scenario_lists_valid_names(tmp_path) -> None:
+    """An unknown name raises ParameterError naming the scenarios; the CLI exits 2."""
+    with pytest.raises(ParameterError, match="paper-bag, paper-ball, paper-push"):
+        get_scenario("paper-kick")
+    assert main(["compare", "paper-kick", "--out", str(tmp_path / "x")]) == 2
+
+
+def test_invalid_definitions_raise() -> None:
+    """Frozen dataclasses validate their fields."""
+    with pytest.raises(ParameterError):
+        Scenario(name="x", summary="", paper="", robot="op3", command=get_scenario("paper-bag").command,
+                 duration_s=1.0, robust_modules=("teleport",))
+    with pytest.raises(ParameterError):
+        ScaledForce(1.0, 0.0, reference_mass_kg=0.0)
+    with pytest.raises(ParameterError):
+        Variation(magnitude_fraction=1.5)
+    with pytest.raises(ParameterError):
+        BallSpec(release_angle_rad=2.0)
+
+
+def test_masses_and_forces_scale_with_robot_mass() -> None:
+    """Bag, ball and pushes are the paper's values times m_robot / m_paper_robot."""
+    bag = realise("paper-bag").details
+    assert bag["bag"]["mass_kg"] == pytest.approx(0.67 * bag["robot_mass_kg"] / 5.4, rel=1e-3)
+    ball = realise("paper-ball").details
+    assert ball["ball"]["mass_kg"] == pytest.approx(0.265 * ball["robot_mass_kg"] / 5.4, rel=1e-3)
+    push = realise("paper-push").details
+    k = push["robot_mass_kg"] / 40.0
+    assert push["forces"][0]["fx_n"] == pytest.approx(45.0 * k, rel=1e-3)
+    assert push["forces"][1]["fy_n"] == pytest.approx(85.0 * k, rel=1e-3)
+
+
+def test_seed_varies_push_time_and_magnitude() -> None:
+    """Seed 0 is the paper's value; other seeds shift and scale within the declared bounds, reproducibly."""
+    base = realise("paper-push", seed=0).details["forces"][1]
+    seen = set()
+    for seed in (1, 2, 3):
+        d = realise("paper-push", seed=seed).details
+        f = d["forces"][1]
+        assert abs(f["t_start_s"] - base["t_start_s"]) <= 0.2 + 1e-9
+        assert 0.9 - 1e-9 <= f["fy_n"] / base["fy_n"] <= 1.1 + 1e-9
+        assert d == realise("paper-push", seed=seed).details
+        seen.add(f["t_start_s"])
+    assert len(seen) == 3
+
+
+def test_pendulum_swing_time_matches_small_angle_limit() -> None:
+    """For small amplitudes the swing to the bottom is a quarter of 2π sqrt(L/g)."""
+    t = pendulum_swing_time(0.5, 0.02, 0.0)
+    assert t == pytest.approx(0.5 * math.pi * math.sqrt(0.5 / 9.81), rel=1e-3)
+    assert pendulum_swing_time(0.5, 1.0, 0.0) > t  # large amplitudes are slower
+
+
+def _sim_with(items, duration_s: float, walk: bool):
+    """Run op3 (standing still or walking forward 0.15 m/s) with scene items; return the RunResult."""
+    from robust_ismpc.planner import WalkCommand
+    from robust_ismpc.runner import RunSpec
+    from robust_ismpc.sim.run import run_mujoco_spec
+
+    spec = RunSpec(robot="op3", sim="mujoco", command=WalkCommand(0.15 if walk else 0.0), duration_s=duration_s)
+    return run_mujoco_spec(spec, scene_items=items)
+
+
+def test_bag_body_exists_and_swings() -> None:
+    """The bag is a real body on a ball joint under the right elbow, and it swings while OP3 walks."""
+    import mujoco
+
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.disturbances import build_scene, payload_body_names
+
+    run = realise("paper-bag")
+    model = build_scene(load_robot("op3"), run.scene_items)
+    name = payload_body_names(run.scene_items)[0]
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+    assert body >= 0
+    assert model.body(model.body_parentid[body]).name == "r_el_link"
+    assert model.body_subtreemass[body] == pytest.approx(run.details["bag"]["mass_kg"], abs=1e-4)
+    joint = model.body_jntadr[body]
+    assert model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_BALL
+    result = _sim_with(run.scene_items, 3.0, walk=True)
+    swing = result.summary["scene"]["payloads"][0]
+    assert swing["max_swing_rad"] > 0.05  # starts hanging straight; walking sets it swinging
+    assert swing["swing_std_rad"] > 0.01
+
+
+def test_ball_hits_robot_in_the_intended_window() -> None:
+    """The released ball touches the robot within 20 ms of the planned hit and delivers a forward impulse."""
+    run = realise("paper-ball")
+    ball = run.details["ball"]
+    assert ball["time_to_step_at_hit_s"] == pytest.approx(0.25)
+    assert 0 < ball["release_s"] < ball["hit_s"]
+    result = _sim_with(run.scene_items, ball["hit_s"] + 0.3, walk=True)
+    hit = result.summary["scene"]["balls"][0]
+    assert hit["hit"]
+    # Contact is first seen at the end of the control tick (10 ms) in which it starts.
+    assert ball["hit_s"] - 0.005 <= hit["first_contact_s"] <= ball["hit_s"] + 0.02
+    assert hit["impact_speed_mps"] == pytest.approx(ball["expected_impact_speed_mps"], rel=0.05)
+    assert hit["impulse_ns"][0] > 0.5 * ball["ball_momentum_ns"]
+    assert abs(hit["impulse_ns"][1]) < 0.2 * hit["impulse_ns"][0]
+
+
+def test_cli_lists_scenarios(capsys) -> None:
+    """`ismpc scenarios` prints one line per scenario."""
+    assert main(["scenarios"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert [line.split()[0] for line in lines] == list(SCENARIOS)
+
+
+def test_compare_scenario_rejects_conflicting_robot(tmp_path) -> None:
+    """A scenario fixes the robot: --robot g1 with paper-ball is a usage error."""
+    assert main(["compare", "paper-ball", "--robot", "g1", "--out", str(tmp_path / "x")]) == 2
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "measured: on MuJoCo the MPC runs open loop (state feedback gain 0, docs/robots.md), so the timing "
+    "module never sees the hit: robust (timing only) makes 0 adaptations and behaves exactly like nominal; "
+    "with the 60 deg release (0.33 N s on OP3) both walk on"))
+def test_paper_ball_robust_survives_nominal_falls(tmp_path) -> None:
+    """paper-ball on OP3 (seed 0): robust walks on after the hit, nominal falls."""
+    result = run_scenario("paper-ball", seed=0, duration_s=5.0)
+    comparison = result.comparison
+    assert comparison["nominal"]["scene"]["balls"][0]["hit"]
+    assert not comparison["robust"]["fell"]
+    assert comparison["nominal"]["fell"]
+    np.testing.assert_array_less(comparison["robust"]["time_to_step_after_hit_s"], 0.25)
