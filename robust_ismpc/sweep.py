@@ -43,6 +43,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, fields
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -286,7 +287,11 @@ class SweepConfig:
 
     def max_magnitude(self, kind: str) -> float:
         """Upper end of the bisection of ``kind`` [N s or N]."""
-        return float(self.impulse_max_ns if kind == "impulse" else self.force_max_n)
+        if kind == "impulse":
+            return float(self.impulse_max_ns)
+        if kind == "force" and self.force_max_n is not None:
+            return float(self.force_max_n)
+        raise ParameterError(f"this sweep has no {kind!r} bisection; kinds: {', '.join(self.kinds)}")
 
     def resolution(self, kind: str) -> float:
         """Width of the final bisection bracket [N s or N]."""
@@ -316,7 +321,7 @@ class SweepConfig:
         if unknown:
             raise ParameterError(f"sweep configuration has unknown fields: {', '.join(sorted(unknown))}")
         values = {k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()}
-        return cls(**values)
+        return cls(**values)  # type: ignore[arg-type]
 
     # -----------------------------------------------------------------------------------------
     def gait_params(self):
@@ -710,11 +715,14 @@ class _LocalBackend:
 
     def close(self, interrupted: bool = False) -> None:
         if interrupted:
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            # the workers ignore SIGINT: stop the ones still running a trial
-            for process in list((getattr(self._pool, "_processes", None) or {}).values()):
+            # The workers ignore SIGINT: stop them (trials under way are lost, not half-written);
+            # the pool then sees its processes gone and its manager thread ends.
+            processes = list((getattr(self._pool, "_processes", None) or {}).values())
+            for process in processes:
                 if process.is_alive():
                     process.terminate()
+            for process in processes:
+                process.join(timeout=5.0)
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
@@ -833,11 +841,33 @@ def _config_diff(old: dict, new: dict) -> list[str]:
     return sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
 
 
-def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> bool:
-    """Check or create the output directory; True if an earlier sweep there is resumed.
+def code_digest() -> dict:
+    """Package version and a digest of its Python sources: which code produced the trials."""
+    from importlib import metadata
+
+    root = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    try:
+        version = metadata.version("robust-ismpc")
+    except metadata.PackageNotFoundError:
+        version = "unknown"
+    return {"version": version, "sources_sha256": digest.hexdigest()[:16]}
+
+
+def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> dict | None:
+    """Check or create the output directory and its ``sweep.json``.
 
     An existing directory holding the same configuration (``sweep.json``) resumes; with
     ``overwrite`` the sweep's own files are removed first (other files are left alone).
+
+    Returns
+    -------
+    dict or None
+        When an earlier sweep is resumed, the code that started it (:func:`code_digest`);
+        None for a new sweep.
 
     Raises
     ------
@@ -849,7 +879,7 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> bool:
     if out.exists() and not out.is_dir():
         raise ParameterError(f"--out {str(out)!r} exists and is not a directory")
     wanted = json.loads(json.dumps(config.to_dict()))
-    resume = False
+    previous = None
     if out.exists() and any(out.iterdir()):
         if overwrite:
             for name in OUTPUT_FILES:
@@ -862,19 +892,21 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> bool:
                     "pass --overwrite to write into it or choose another directory"
                 )
             try:
-                stored = json.loads(stored_path.read_text())["config"]
+                stored_file: dict = json.loads(stored_path.read_text())
+                stored = stored_file["config"]
             except (OSError, ValueError, KeyError, TypeError):
-                stored = {}
+                stored_file, stored = {}, {}
             if stored != wanted:
                 diff = _config_diff(stored, wanted) if isinstance(stored, dict) else ["all"]
                 raise ParameterError(
                     f"--out {str(out)!r} holds a sweep with a different configuration (differs in: "
                     f"{', '.join(diff)}); pass --overwrite to replace it or choose another directory"
                 )
-            resume = True
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_json(out / SWEEP_JSON, {"format": SWEEP_FORMAT, "config": wanted})
-    return resume
+            previous = stored_file.get("code") or {"version": "unknown", "sources_sha256": "unknown"}
+    if previous is None:
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(out / SWEEP_JSON, {"format": SWEEP_FORMAT, "config": wanted, "code": code_digest()})
+    return previous
 
 
 def _replay(config: SweepConfig, rows: list[dict]) -> tuple[dict[TaskKey, Bisection], int]:
@@ -892,9 +924,10 @@ def _replay(config: SweepConfig, rows: list[dict]) -> tuple[dict[TaskKey, Bisect
     for key in config.tasks():
         b = Bisection(config.max_magnitude(key.kind), config.iterations)
         while (m := b.next_magnitude()) is not None:
-            row = finished.get((key, len(b.trials)))
-            if row is None:
+            done_row = finished.get((key, len(b.trials)))
+            if done_row is None:
                 break
+            row = done_row
             if float(row["magnitude"]) != m:
                 raise ParameterError(
                     f"{RUNS_CSV} does not follow this sweep's bisection ({key.controller}, {key.direction_deg:g}°, "
@@ -909,6 +942,8 @@ def _replay(config: SweepConfig, rows: list[dict]) -> tuple[dict[TaskKey, Bisect
 
 def _make_trial(config: SweepConfig, key: TaskKey, b: Bisection, push_window: tuple[float, float]) -> Trial:
     magnitude = b.next_magnitude()
+    if magnitude is None:
+        raise ParameterError(f"bisection {key} is already complete")
     start, T_ss = push_window
     t_push = start + key.phase * T_ss
     return Trial(
@@ -969,7 +1004,11 @@ def run_sweep(
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
     push_window = config.pushed_step_window()
-    prepare_out(config, out, overwrite)
+    code = code_digest()
+    previous_code = prepare_out(config, out, overwrite)
+    if previous_code is not None and previous_code != code:
+        LOGGER.warning("resuming a sweep started with other code (%s); runs.csv will mix trials of both",
+                       previous_code.get("sources_sha256"))
     runs_path = out / RUNS_CSV
     bisections, replayed = _replay(config, read_runs(runs_path))
     pending_tasks = [k for k, b in bisections.items() if not b.done]
@@ -1019,7 +1058,7 @@ def run_sweep(
     result = SweepResult(frontier=frontier, paths=(), trials_total=len(rows), trials_new=new,
                          trials_resumed=replayed, wall_time_s=wall)
     report = format_report(config, frontier, result, rows, command_line=command_line, backend=backend,
-                           workers=workers, started_at=started_at)
+                           workers=workers, started_at=started_at, code=code, previous_code=previous_code)
     atomic_write_bytes(out / REPORT_MD, report.encode())
     paths.append(out / REPORT_MD)
     return SweepResult(frontier=frontier, paths=tuple(paths), trials_total=len(rows), trials_new=new,
@@ -1077,7 +1116,7 @@ def frontier_summary(config: SweepConfig, bisections: dict[TaskKey, Bisection]) 
                 if controller == "nominal":
                     continue
                 name = f"{controller}/nominal"
-                table = {}
+                table: dict[str, dict[str, Any]] = {}
                 for d, cell in ctrl_table.items():
                     base = nominal[d]
                     per_phase = [_ratio(a, b) for a, b in zip(cell["per_phase"], base["per_phase"])]
@@ -1126,7 +1165,7 @@ def _label(kind: str) -> str:
 
 
 def plot_polar(frontier: dict, kind: str, path: Path) -> Path:
-    """Polar frontier: one closed curve per controller, radius = min over phases of the frontier."""
+    """Polar frontier: per controller, radius = min over phases (solid) and mean over phases (dashed)."""
     from .plotting import _pyplot, _save
 
     plt = _pyplot()
@@ -1136,14 +1175,17 @@ def plot_polar(frontier: dict, kind: str, path: Path) -> Path:
     for controller, ctrl_table in table.items():
         dirs = sorted(ctrl_table, key=float)
         theta = np.radians([float(d) for d in dirs])
-        radius = np.array([ctrl_table[d]["min"] for d in dirs])
+        low = np.array([ctrl_table[d]["min"] for d in dirs])
+        mean = np.array([ctrl_table[d]["mean"] for d in dirs])
         if len(dirs) >= 3:
-            theta, radius = np.append(theta, theta[0]), np.append(radius, radius[0])
-        ax.plot(theta, radius, "o-", lw=1.5, ms=4, label=controller)
+            theta, low, mean = (np.append(a, a[0]) for a in (theta, low, mean))
+        (line,) = ax.plot(theta, low, "o-", lw=1.5, ms=4, label=controller)
+        if len(table[controller][dirs[0]]["per_phase"]) > 1:
+            ax.plot(theta, mean, "--", lw=0.9, color=line.get_color(), alpha=0.7)
     ax.set_theta_zero_location("E")
     ax.set_theta_direction(1)
-    ax.set_title(f"{frontier['robot']} / {frontier['sim']}: {_label(kind)}\n(min over phases; 0° = forward, 90° = left)",
-                 fontsize=9)
+    ax.set_title(f"{frontier['robot']} / {frontier['sim']}: {_label(kind)}\n(solid: min over phases, dashed: mean; "
+                 "0° = forward, 90° = left)", fontsize=9)
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     _save(fig, path)
     plt.close(fig)
@@ -1229,8 +1271,10 @@ def format_report(
     backend: str = "local",
     workers: int = 1,
     started_at: datetime | None = None,
+    code: dict | None = None,
+    previous_code: dict | None = None,
 ) -> str:
-    """``report.md``: command line, machine, versions, seeds, timing, frontier tables."""
+    """``report.md``: command line, machine, versions, code, seeds, timing, frontier tables."""
     from .bench import machine
 
     rows = list(rows)
@@ -1264,9 +1308,18 @@ def format_report(
              f"run by this invocation: {result.trials_new}; resumed from an earlier one: {result.trials_resumed}\n")
     md.write(f"- wall time of this invocation: {result.wall_time_s:.1f} s "
              f"({result.runs_per_s:.2f} runs/s); sum of trial wall times: {trial_wall:.1f} s\n")
+    if hasattr(os, "getloadavg"):
+        md.write(f"- load average at the end (1, 5, 15 min; other processes slow the trials down): "
+                 f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}\n")
     md.write(f"- complete: {'yes' if frontier['complete'] else 'no (interrupted; rerun the command to resume)'}\n\n")
     md.write("Machine: " + json.dumps(machine()) + "\n\n")
     md.write("Versions: " + json.dumps(_versions()) + "\n\n")
+    if code is not None:
+        md.write(f"Code: robust-ismpc {code['version']}, sources sha256 {code['sources_sha256']}")
+        if previous_code is not None and previous_code != code:
+            md.write(f" (the sweep was started with sources {previous_code.get('sources_sha256')}: "
+                     "runs.csv mixes trials of both)")
+        md.write("\n\n")
     for kind in frontier["frontier"]:
         md.write(f"## Largest survived {kind} [{UNITS[kind]}]\n\n")
         md.write("Per direction, the frontier's minimum and mean over phases; ratios to nominal of those "

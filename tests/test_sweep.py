@@ -3,6 +3,7 @@
 import csv
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -36,6 +37,14 @@ def tiny_config(**changes) -> SweepConfig:
 def csv_rows(path):
     with open(path, newline="") as handle:
         return list(csv.DictReader(handle))
+
+
+def exit_code(argv) -> int:
+    """Exit status of ``ismpc ARGV`` (argparse errors exit through SystemExit)."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
 
 
 def entries_by_key(frontier: dict) -> dict:
@@ -135,7 +144,7 @@ def test_bad_config_raises_parameter_error(changes, message):
 def test_cli_bad_sweep_input_exits_2(tmp_path, capsys, extra, message):
     """`ismpc sweep` with a bad value exits 2 with one stderr line and writes nothing."""
     out = tmp_path / "s"
-    assert main(["sweep", "--out", str(out), "--quiet", *extra]) == 2
+    assert exit_code(["sweep", "--out", str(out), "--quiet", *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1, err
     assert message in err
@@ -213,7 +222,7 @@ def test_tiny_sweep_writes_sane_outputs(tmp_path):
         data = (tmp_path / name).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5_000
     report = (tmp_path / "report.md").read_text()
-    for text in ("ismpc sweep --test", "Machine:", "Versions:", "runs/s", "base seed 3", "| 90 |"):
+    for text in ("ismpc sweep --test", "Machine:", "Versions:", "sources sha256", "runs/s", "base seed 3", "| 90 |"):
         assert text in report
     assert json.loads((tmp_path / "sweep.json").read_text())["config"] == json.loads(json.dumps(config.to_dict()))
 
@@ -324,3 +333,44 @@ def test_ray_backend_matches_local(tmp_path):
     local = run_sweep(config, tmp_path / "local", workers=1)
     on_ray = run_sweep(config, tmp_path / "ray", workers=1, backend="ray")
     assert entries_by_key(on_ray.frontier) == entries_by_key(local.frontier)
+
+
+def test_sigint_stops_worker_processes_and_exits_130(tmp_path):
+    """SIGINT to `ismpc sweep` on 2 processes: exit 130 within seconds, only complete rows, no workers left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "s"
+    cmd = [sys.executable, "-m", "robust_ismpc.cli", "sweep", "--controllers", "nominal,timing", "--direction",
+           "0,90", "--phase", "0:1:2", "--impulse-max", "16", "--iterations", "6", "--workers", "2",
+           "--out", str(out), "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if (out / "runs.csv").exists() and len((out / "runs.csv").read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        raise
+    assert proc.returncode == 130, err
+    assert "rerun the same command to resume" in err
+    text = (out / "runs.csv").read_text()
+    assert text.endswith("\n")
+    rows = read_runs(out / "runs.csv")
+    assert 2 <= len(rows) < 2 * 2 * 2 * 7
+    assert all(len(r) == len(COLUMNS) for r in rows)
+    time.sleep(0.5)
+    left = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if str(out).encode() in cmdline.read_bytes():
+                left.append(cmdline.parent.name)
+        except OSError:
+            pass
+    assert not left, f"worker processes still running: {left}"

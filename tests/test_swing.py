@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from fixtures import walking_controller
 
 from robust_ismpc.swing import SwingState, advance_swing, quintic_step
 
@@ -70,11 +71,6 @@ def test_rounded_touchdown_still_lands_and_next_swing_lifts():
 
 def test_every_swing_of_a_long_walk_lifts_the_foot():
     """In a 30 s walk every single support lifts the swing foot to about the swing height."""
-    import sys, os
-
-    sys.path.insert(0, os.path.dirname(__file__))
-    from fixtures import walking_controller
-
     controller = walking_controller("g1", 0.2, duration_s=30.0)
     plan = controller.plan
     peaks: dict[int, float] = {}
