@@ -130,6 +130,13 @@ class IsmpcController:
                 raise ParameterError(f"{name} must be in [0, 1], got {gain!r}")
         self.robot = robot
         self.mpc_params = mpc if mpc is not None else MpcParams()
+        if not isinstance(robot, RobotParams):
+            raise ParameterError(f"robot must be RobotParams, got {type(robot).__name__}")
+        if self.mpc_params.control_horizon_s < robot.T_step_s - 1e-9:
+            raise ParameterError(
+                f"control horizon {self.mpc_params.control_horizon_s} s is shorter than one step "
+                f"({robot.T_step_s} s = T_ss + T_ds of {robot.name}); use at least one step"
+            )
         self.qp = IsmpcQp(robot, self.mpc_params, solver)
         self.eta = robot.eta
         self.dt = self.mpc_params.sampling_period_s
@@ -296,7 +303,7 @@ class IsmpcController:
             if measurement.zmp_m is not None:
                 values.append(measurement.zmp_m)
             if not np.isfinite(np.concatenate(values)).all():
-                raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf")
+                raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
         self._anchor_landed(t_s, measurement)
         self._before_cycle(t_s, measurement)
         state = self._mpc_state(t_s, measurement)

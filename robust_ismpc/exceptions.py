@@ -43,7 +43,18 @@ class InfeasibleMpc(SolverError):
 
 
 class ControllerFailure(IsmpcError):
-    """The controller cannot produce a reference any more (e.g. infeasible for too long)."""
+    """The controller cannot produce a reference any more.
+
+    Attributes
+    ----------
+    reason : str
+        ``"qp_infeasible"`` (infeasible longer than the fallback allows) or
+        ``"bad_measurement"`` (NaN or inf in the measurement).
+    """
+
+    def __init__(self, message: str, reason: str = "qp_infeasible"):
+        super().__init__(message)
+        self.reason = reason
 
 
 class ModelError(IsmpcError):

@@ -111,7 +111,7 @@ def run_lip(
         try:
             ref = controller.step(t, meas)
         except ControllerFailure as exc:
-            failure = f"qp_infeasible: {exc}"
+            failure = f"{exc.reason}: {exc}"
             break
         except KeyboardInterrupt:
             failure = INTERRUPTED

@@ -292,7 +292,7 @@ def run_mujoco_spec(
             try:
                 reference = controller.step(t_s, measurement)
             except ControllerFailure as exc:
-                failure = f"qp_infeasible: {exc}"
+                failure = f"{exc.reason}: {exc}"
                 break
             c = time.perf_counter()
             command = stabilizer.command(reference, measurement) if stabilizer is not None else reference
