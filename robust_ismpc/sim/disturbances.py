@@ -291,6 +291,25 @@ def _ball_body_name(ball: SwingingBall) -> str:
     return f"{DISTURBANCE_PREFIX}{ball.name}"
 
 
+def _add_rope_and_bob(body, rope_length_m: float, rope_radius_m: float, bob_radius_m: float,
+                      bob_mass_kg: float, rgba: list[float], collides: bool) -> None:
+    """A massless, non-colliding rope hanging down from ``body``'s origin and a sphere at its end.
+
+    ``collides`` decides whether the sphere collides (a ball hitting the robot) or not (a bag).
+    """
+    body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, 0, 0, -rope_length_m], size=[rope_radius_m, 0, 0],
+        mass=0.0, contype=0, conaffinity=0, rgba=[0.3, 0.3, 0.3, 1],
+    )
+    bob = body.add_geom(
+        type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=[0, 0, -rope_length_m], size=[bob_radius_m, 0, 0],
+        mass=bob_mass_kg, rgba=rgba,
+    )
+    if not collides:
+        bob.contype = 0
+        bob.conaffinity = 0
+
+
 def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjModel:
     """Compile the robot scene with disturbance objects added.
 
@@ -328,24 +347,8 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
                 frictionloss=0.0,
                 stiffness=0.0,
             )
-            body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                fromto=[0, 0, 0, 0, 0, -item.rope_length_m],
-                size=[0.004, 0, 0],
-                mass=0.0,
-                contype=0,
-                conaffinity=0,
-                rgba=[0.3, 0.3, 0.3, 1],
-            )
-            body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                pos=[0, 0, -item.rope_length_m],
-                size=[item.radius_m, 0, 0],
-                mass=item.mass_kg,
-                contype=0,
-                conaffinity=0,
-                rgba=[0.8, 0.5, 0.1, 1],
-            )
+            _add_rope_and_bob(body, item.rope_length_m, 0.004, item.radius_m, item.mass_kg,
+                              rgba=[0.8, 0.5, 0.1, 1], collides=False)
         elif isinstance(item, SwingingBall):
             name = _ball_body_name(item)
             if mj_spec.body(name) is not None:
@@ -355,22 +358,8 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
                 name=f"{name}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(item.hinge_axis),
                 damping=0.0, armature=0.0, frictionloss=0.0, stiffness=0.0,
             )
-            body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                fromto=[0, 0, 0, 0, 0, -item.rope_length_m],
-                size=[0.005, 0, 0],
-                mass=0.0,
-                contype=0,
-                conaffinity=0,
-                rgba=[0.3, 0.3, 0.3, 1],
-            )
-            body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                pos=[0, 0, -item.rope_length_m],
-                size=[item.radius_m, 0, 0],
-                mass=item.mass_kg,
-                rgba=[0.8, 0.1, 0.1, 1],
-            )
+            _add_rope_and_bob(body, item.rope_length_m, 0.005, item.radius_m, item.mass_kg,
+                              rgba=[0.8, 0.1, 0.1, 1], collides=True)
         else:
             raise ParameterError(f"expected Payload or SwingingBall, got {item!r}")
     try:
