@@ -343,8 +343,9 @@ def test_sigint_stops_worker_processes_and_exits_130(tmp_path):
     import time
 
     out = tmp_path / "s"
+    # large enough (288 trials) that it cannot finish before the signal on a fast machine
     cmd = [sys.executable, "-m", "robust_ismpc.cli", "sweep", "--controllers", "nominal,timing", "--direction",
-           "0,90", "--phase", "0:1:2", "--impulse-max", "16", "--iterations", "6", "--workers", "2",
+           "0:360:8", "--phase", "0:1:2", "--impulse-max", "16", "--iterations", "8", "--workers", "2",
            "--out", str(out), "--quiet"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
@@ -352,6 +353,7 @@ def test_sigint_stops_worker_processes_and_exits_130(tmp_path):
         if (out / "runs.csv").exists() and len((out / "runs.csv").read_text().splitlines()) >= 3:
             break
         time.sleep(0.05)
+    assert proc.poll() is None, "the sweep finished before it could be interrupted"
     proc.send_signal(signal.SIGINT)
     try:
         _, err = proc.communicate(timeout=20)
