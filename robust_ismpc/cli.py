@@ -139,6 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
                         help="largest push [N] (default 8 N scaled by robot mass)")
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
+    p_soak.add_argument("--modules", default="observer,restriction,timing",
+                        help="controller modules (default: all three, the robust controller)")
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
 
@@ -371,8 +373,10 @@ def cmd_soak(args) -> int:
     from .io import atomic_write_json
     from .soak import SoakSpec, run_soak
 
+    from .runner import parse_modules
+
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
-                    seed=args.seed)
+                    seed=args.seed, modules=parse_modules("robust", args.modules))
     out = _prepare_out(args.out, args.overwrite)
     args.duration = spec.duration_s
     args.quiet = False

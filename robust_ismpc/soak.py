@@ -41,6 +41,8 @@ class SoakSpec:
     vx_mps : float
         Forward speed command [m/s].
     seed : int
+    modules : tuple of str
+        Controller modules (default: all three, the robust controller).
     """
 
     robot: str = "g1"
@@ -50,6 +52,7 @@ class SoakSpec:
     push_interval_s: tuple[float, float] = (2.0, 4.0)
     vx_mps: float = 0.2
     seed: int = 0
+    modules: tuple[str, ...] = MODULES
 
     def __post_init__(self) -> None:
         robot_params(self.robot)
@@ -97,7 +100,7 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
         if progress is not None:
             progress(t_s)
 
-    run_spec = RunSpec(robot=spec.robot, sim=spec.sim, modules=MODULES, command=WalkCommand(spec.vx_mps),
+    run_spec = RunSpec(robot=spec.robot, sim=spec.sim, modules=tuple(spec.modules), command=WalkCommand(spec.vx_mps),
                        duration_s=spec.duration_s, forces=pushes, seed=spec.seed)
     start = time.perf_counter()
     result = run(run_spec, progress=on_progress)
@@ -108,6 +111,7 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
         "robot": spec.robot,
         "sim": spec.sim,
         "seed": spec.seed,
+        "modules": list(spec.modules),
         "simulated_s": summary["duration_s"],
         "wall_s": round(wall, 1),
         "pushes": len(pushes),
