@@ -371,9 +371,8 @@ def cmd_compare(args) -> int:
 
 def cmd_soak(args) -> int:
     from .io import atomic_write_json
-    from .soak import SoakSpec, run_soak
-
     from .runner import parse_modules
+    from .soak import SoakSpec, run_soak
 
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
                     seed=args.seed, modules=parse_modules("robust", args.modules))
