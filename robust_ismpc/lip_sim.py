@@ -19,11 +19,10 @@ from .controller import IsmpcController
 from .exceptions import ControllerFailure, ParameterError
 from .forces import ForceWindow, total_force
 from .lip import discretise
-from .reference import Measurement, Support
-from .trace import Trace, TraceRecorder
+from .reference import Measurement
+from .trace import Trace, TraceRecorder, controller_channels
 
 INTERRUPTED = "interrupted"
-_SUPPORT_CODE = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}
 
 
 @dataclass(frozen=True)
@@ -116,16 +115,9 @@ def run_lip(
         except KeyboardInterrupt:
             failure = INTERRUPTED
             break
-        info = controller.info
         recorder.record(
             t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
-            zmp_ref_m=ref.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_half_m=half_box, box_yaw_rad=yaw,
-            zmp_violation_m=violation, left_foot_m=ref.left_foot.pos_m, right_foot_m=ref.right_foot.pos_m,
-            support=_SUPPORT_CODE[ref.support], step_index=ref.step_index, time_to_step_s=ref.time_to_step_s,
-            disturbance_true_mps2=w, disturbance_est_mps2=info.disturbance_mps2,
-            infeasible=float(info.infeasible), build_ms=1e3 * info.build_time_s,
-            solve_ms=1e3 * info.solve_time_s, cycle_ms=1e3 * info.cycle_time_s,
-            **controller.extra_channels(),
+            zmp_violation_m=violation, disturbance_true_mps2=w, **controller_channels(controller, ref, t),
         )
         zmp_vel = (ref.zmp_m - true_state[2]) / dt
         true_state = disc.A @ true_state + np.outer(disc.B, zmp_vel) + np.outer(disc.E, w)

@@ -99,6 +99,36 @@ class Trace:
         return cls(channels=channels, meta=meta, **kwargs)
 
 
+def controller_channels(controller, reference, t_s: float) -> dict:
+    """The channels every simulator records from the controller at a tick.
+
+    Parameters
+    ----------
+    controller : IsmpcController
+        After its ``step`` at ``t_s``.
+    reference : GaitReference
+        What that step returned.
+    t_s : float
+        Time of the tick [s]; the ZMP box (centre, half sides, yaw) is evaluated there.
+    """
+    from .reference import Support
+
+    plan, info = controller.plan, controller.info
+    at = np.array([t_s])
+    support_code = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}[reference.support]
+    return {
+        "zmp_ref_m": reference.zmp_m, "dcm_m": info.dcm_m,
+        "box_centre_m": plan.centre(at)[0], "box_half_m": plan.box_half(at)[0],
+        "box_yaw_rad": float(plan.centre_yaw(at)[0]),
+        "left_foot_m": reference.left_foot.pos_m, "right_foot_m": reference.right_foot.pos_m,
+        "support": support_code, "step_index": reference.step_index, "time_to_step_s": reference.time_to_step_s,
+        "disturbance_est_mps2": info.disturbance_mps2, "infeasible": float(info.infeasible),
+        "build_ms": 1e3 * info.build_time_s, "solve_ms": 1e3 * info.solve_time_s,
+        "cycle_ms": 1e3 * info.cycle_time_s,
+        **controller.extra_channels(),
+    }
+
+
 class TraceRecorder:
     """Accumulates ticks into preallocated arrays (grown geometrically)."""
 

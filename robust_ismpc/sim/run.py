@@ -33,11 +33,10 @@ import numpy as np
 
 from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..planner import plan_footsteps
-from ..reference import Support
 from ..report import summarize
 from ..robots.spec import BUILTIN_ROBOTS, load_robot
 from ..runner import RunResult, RunSpec, make_controller, run_meta
-from ..trace import TraceRecorder
+from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
 from .disturbances import Force, SceneMonitor, scene_forces
 from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
@@ -50,7 +49,6 @@ logger = logging.getLogger("robust_ismpc")
 #: points of spheres or box edges move by about this much when a foot tilts slightly.
 COP_TOLERANCE_M = 1e-3
 
-_SUPPORT_CODE = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}
 
 
 @dataclass(frozen=True)
@@ -307,22 +305,13 @@ def run_mujoco_spec(
                 monitor.update(sim.data, float(sim.data.time))
             e = time.perf_counter()
 
-            info = controller.info
-            centre = plan.centre(np.array([t_s]))[0]
-            yaw = float(plan.centre_yaw(np.array([t_s]))[0])
             zmp = measurement.zmp_m if measurement.zmp_m is not None else np.full(2, np.nan)
             if violation > COP_TOLERANCE_M:
                 outside_ticks += 1
             recorder.record(
                 t_s=t_s, com_m=measurement.com_pos_m[:2], com_vel_mps=measurement.com_vel_mps[:2], zmp_m=zmp,
-                zmp_ref_m=reference.zmp_m, dcm_m=info.dcm_m, box_centre_m=centre, box_yaw_rad=yaw,
-                zmp_violation_m=violation, left_foot_m=reference.left_foot.pos_m,
-                right_foot_m=reference.right_foot.pos_m, support=_SUPPORT_CODE[reference.support],
-                step_index=reference.step_index, time_to_step_s=reference.time_to_step_s,
-                disturbance_true_mps2=force[:2] / mass, disturbance_est_mps2=info.disturbance_mps2,
-                infeasible=float(info.infeasible), build_ms=1e3 * info.build_time_s,
-                solve_ms=1e3 * info.solve_time_s, cycle_ms=1e3 * info.cycle_time_s,
-                **controller.extra_channels(),
+                zmp_violation_m=violation, disturbance_true_mps2=force[:2] / mass,
+                **controller_channels(controller, reference, t_s),
             )
             f = time.perf_counter()
             t_meas += b - a
