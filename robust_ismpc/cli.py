@@ -138,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--minutes", type=_positive_float("minutes"), default=10.0, help="simulated minutes (10)")
     p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
                         help="largest push [N] (default 8 N scaled by robot mass)")
+    p_soak.add_argument("--vx", type=_finite_float("vx"), default=None,
+                        help="forward velocity command [m/s] (0.2 on the LIP, 0.1 in MuJoCo)")
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
     p_soak.add_argument("--modules", default="observer,restriction,timing",
                         help="controller modules (default: all three, the robust controller)")
@@ -375,7 +377,7 @@ def cmd_soak(args) -> int:
     from .soak import SoakSpec, run_soak
 
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
-                    seed=args.seed, modules=parse_modules("robust", args.modules))
+                    vx_mps=args.vx, seed=args.seed, modules=parse_modules("robust", args.modules))
     out = _prepare_out(args.out, args.overwrite)
     args.duration = spec.duration_s
     args.quiet = False

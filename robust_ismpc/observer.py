@@ -414,3 +414,44 @@ class PersistenceFilter:
         same_sign = np.all(buf > 0, axis=0) | np.all(buf < 0, axis=0)
         smallest = buf[np.argmin(np.abs(buf), axis=0), [0, 1]]
         return np.where(same_sign, smallest, 0.0)
+
+
+class MovingAverage:
+    r"""Mean of the last ``window`` samples of a 2-D signal (the mean of the samples so far
+    while fewer have arrived).
+
+    Used on a walking robot between the persistence filter and the mid-range filter with a
+    window of one stride: the part of the estimate that comes from the mismatch between the
+    robot and the LIP repeats with the gait and averages out over a stride, a persistent force
+    does not (G1 in MuJoCo, forward 0.1 m/s, no force: ŵ has std 0.19 / 0.09 m/s² in x / y,
+    which moves the shifted DCM by up to 2.3 / 1.1 cm, against a ZMP box of ±4 / ±1.5 cm).
+
+    Parameters
+    ----------
+    window : int
+        Number of samples (>= 1; 1 passes the signal through unchanged).
+    """
+
+    def __init__(self, window: int):
+        if not isinstance(window, (int, np.integer)) or window < 1:
+            raise ParameterError(f"MovingAverage window must be an integer >= 1, got {window!r}")
+        self.window = int(window)
+        self._buffer = np.zeros((self.window, 2))
+        self._sum = np.zeros(2)
+        self._count = 0
+
+    def reset(self) -> None:
+        self._buffer[:] = 0.0
+        self._sum[:] = 0.0
+        self._count = 0
+
+    def update(self, value_xy: np.ndarray) -> np.ndarray:
+        """Push a sample (x, y) and return the mean of the window, shape (2,)."""
+        value = _xy(value_xy, "value_xy")
+        slot = self._count % self.window
+        self._sum += value - self._buffer[slot]
+        self._buffer[slot] = value
+        self._count += 1
+        if self._count % (16 * self.window) == 0:  # re-sum now and then against round-off drift
+            self._sum = self._buffer.sum(axis=0)
+        return self._sum / min(self._count, self.window)

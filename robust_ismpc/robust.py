@@ -24,8 +24,16 @@ import numpy as np
 from .controller import IsmpcController
 from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at
+from .footsteps import LEFT
 from .mpc import MpcPlan, MpcState
-from .observer import DisturbanceObserver, MidrangeFilter, MidrangeParams, ObserverParams, PersistenceFilter
+from .observer import (
+    DisturbanceObserver,
+    MidrangeFilter,
+    MidrangeParams,
+    MovingAverage,
+    ObserverParams,
+    PersistenceFilter,
+)
 from .params import MpcParams, RobotParams
 from .planner import rotation
 from .qp import QpSolver
@@ -56,16 +64,25 @@ class RobustParams:
         Only the part of the estimate that persisted this long with one sign becomes mid-range
         (see :class:`~robust_ismpc.observer.PersistenceFilter`) [s]: impulsive pushes are left to
         the step timing adaptation instead of being compensated as if they lasted forever.
+    average_s : float
+        Window of a moving average applied after the persistence filter [s] (0: none). On a
+        walking robot, one stride (2 (T_ss + T_ds)) removes the gait-periodic part of the
+        estimate that comes from the robot-LIP mismatch (:class:`~robust_ismpc.observer.MovingAverage`);
+        a persistent force then takes one window to be fully compensated.
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
-    timing_uses_measured_dcm : bool
-        When a measurement is given, the step timing check uses the measured DCM
-        (x_c + ẋ_c/η + w̃/η² from the measured CoM) instead of the MPC's state. On the LIP with
-        full state feedback the two are equal; on a robot whose MPC state is the internal model
-        (feedback gains below 1) only the measured DCM shows a push. Off by default: on OP3 in
-        MuJoCo (paper-ball, seed 0) it re-timed steps from the noisy measured DCM and the robot
-        fell at 4.1 s, while with it off the ball hit went unnoticed and both controllers walked.
+    measured_dcm_band_m : tuple of float or None
+        (x, y) [m]. When set and the measurement carries the soles, the step timing check uses
+        the MPC's DCM plus the measured DCM error beyond this band: in single support,
+        ``e = (ξ_meas − p_stance,meas) − (ξ_model − p_stance,ref)`` with ξ = c + ċ/η, each axis
+        shrunk towards 0 by its band (a dead zone). On a robot whose MPC state is the internal
+        model (feedback gains 0) this is the only way a push reaches the timing module; the
+        error is taken relative to the stance sole because the whole robot drifts in the world
+        (slip, yaw) while the relative geometry is kept, and the band is the tracking error of
+        undisturbed walking (OP3 forward 0.15 m/s in single support: |e_x| ≤ 6.6 mm, |e_y| ≤
+        12.6 mm, measured), so that only a disturbance beyond it triggers an adaptation. None
+        (default): the MPC's DCM only (on the LIP with full state feedback the two coincide).
     sta : StaParams or None
         Step timing adaptation settings; None: defaults with the safety margin (and trigger
         distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
@@ -79,8 +96,9 @@ class RobustParams:
     observer_poles: tuple[float, float, float] = (0.6, 0.7, 0.8)
     observer_zmp_pole: float = 0.5
     persistence_s: float = 0.12
+    average_s: float = 0.0
     midrange_rate_mps3: float = 10.0
-    timing_uses_measured_dcm: bool = False
+    measured_dcm_band_m: tuple[float, float] | None = None
     sta: StaParams | None = None
 
     def __post_init__(self) -> None:
@@ -93,6 +111,15 @@ class RobustParams:
         if not (isinstance(self.persistence_s, (int, float)) and math.isfinite(self.persistence_s)
                 and self.persistence_s >= 0):
             raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
+        if not (isinstance(self.average_s, (int, float)) and math.isfinite(self.average_s) and self.average_s >= 0):
+            raise ParameterError(f"RobustParams.average_s must be a finite number >= 0, got {self.average_s!r}")
+        if self.measured_dcm_band_m is not None:
+            band = self.measured_dcm_band_m
+            if not (isinstance(band, (tuple, list)) and len(band) == 2
+                    and all(isinstance(b, (int, float)) and math.isfinite(b) and b >= 0 for b in band)):
+                raise ParameterError(
+                    f"RobustParams.measured_dcm_band_m must be None or two finite numbers >= 0 (x, y) [m], got {band!r}"
+                )
         if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
                 and self.midrange_rate_mps3 > 0):
             raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
@@ -180,6 +207,7 @@ class RobustIsmpcController(IsmpcController):
             ))
             self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
             self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
+            self.average = MovingAverage(max(1, int(round(params.average_s / self.dt))))
         self.timing = _TimingRecord()
 
     # ------------------------------------------------------------------------------------
@@ -188,11 +216,12 @@ class RobustIsmpcController(IsmpcController):
         self.nominal_T_ss_s = plan.T_ss_s.copy()
         self.timing = _TimingRecord()
         self._bounds_cache = None
-        self._measured_dcm = None
+        self._dcm_excess_m = None
         if self.observer is not None:
             self.observer.reset(self.state[0], self.state[1], self.state[2])
             self.midrange.reset(0.0)
             self.persistence.reset()
+            self.average.reset()
 
     @property
     def timing_adaptations(self) -> int:
@@ -203,11 +232,9 @@ class RobustIsmpcController(IsmpcController):
         return self._restriction_m
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
-        self._measured_dcm = None
-        if measurement is not None and self.robust_params.timing_uses_measured_dcm:
-            com = np.asarray(measurement.com_pos_m, float)[:2]
-            vel = np.asarray(measurement.com_vel_mps, float)[:2]
-            self._measured_dcm = com + vel / self.eta
+        self._dcm_excess_m = None
+        if measurement is not None and self.robust_params.measured_dcm_band_m is not None:
+            self._dcm_excess_m = self.measured_dcm_excess(t_s, measurement)
         self.info.observer_time_s = 0.0
         if self.observer is None or measurement is None:
             return
@@ -215,8 +242,32 @@ class RobustIsmpcController(IsmpcController):
         zmp = None if measurement.zmp_m is None else np.asarray(measurement.zmp_m, float)[:2]
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
         self.disturbance_estimate_mps2 = w_hat
-        self.disturbance_mps2 = self.midrange.update(self.persistence.update(w_hat))
+        self.disturbance_mps2 = self.midrange.update(self.average.update(self.persistence.update(w_hat)))
         self.info.observer_time_s = time.perf_counter() - start
+
+    def measured_dcm_excess(self, t_s: float, measurement: Measurement) -> np.ndarray | None:
+        """Measured DCM error relative to the stance sole beyond ``measured_dcm_band_m``.
+
+        Returns
+        -------
+        ndarray, shape (2,), or None
+            World-frame excess [m]; None outside single support or without measured soles.
+        """
+        plan = self.plan
+        j = plan.step_at(t_s)
+        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9 or t_s < plan.ss_start_s[j] - 1e-9:
+            return None
+        stance = -int(plan.side[j])
+        sole = measurement.left_sole_m if stance == LEFT else measurement.right_sole_m
+        if sole is None:
+            return None
+        com = np.asarray(measurement.com_pos_m, float)[:2]
+        vel = np.asarray(measurement.com_vel_mps, float)[:2]
+        measured = com + vel / self.eta - np.asarray(sole, float)[:2]
+        model = self.state[0] + self.state[1] / self.eta - self.feet[stance].pos_m[:2]
+        error = measured - model
+        band = np.asarray(self.robust_params.measured_dcm_band_m, float)
+        return np.sign(error) * np.maximum(np.abs(error) - band, 0.0)
 
     # ------------------------------------------------------------------------------------
     def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
@@ -295,8 +346,8 @@ class RobustIsmpcController(IsmpcController):
         remaining = touchdown - t
         bx, by, R, origin = self._current_bounds(t, j, state, remaining)
         dcm = state.dcm_m
-        if self._measured_dcm is not None:
-            dcm = self._measured_dcm + self.disturbance_mps2 / self.eta**2
+        if self._dcm_excess_m is not None:
+            dcm = dcm + self._dcm_excess_m
         dcm_local = R.T @ (dcm - origin)
         if abs(plan.yaw_rad[j - 1]) < 1e-12:
             self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])

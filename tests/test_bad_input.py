@@ -11,7 +11,7 @@ from robust_ismpc.forces import ForceWindow, parse_force, parse_push
 from robust_ismpc.params import MpcParams, robot_params
 from robust_ismpc.planner import WalkCommand, plan_footsteps
 from robust_ismpc.reference import Measurement
-from robust_ismpc.robust import RobustIsmpcController
+from robust_ismpc.robust import RobustIsmpcController, RobustParams
 from robust_ismpc.runner import RunSpec
 
 G1 = robot_params("g1")
@@ -47,6 +47,9 @@ CASES = [
     ("push with zero duration", lambda: parse_push("1,0@3:0"), "duration must be > 0"),
     ("force starting before 0", lambda: ForceWindow(1.0, 0.0, -1.0, 1.0), "t_start_s"),
     ("step before reset", lambda: IsmpcController(G1).step(0.0), "reset()"),
+    ("negative disturbance average window", lambda: RobustParams(average_s=-1.0), "average_s"),
+    ("measured-DCM band with one number", lambda: RobustParams(measured_dcm_band_m=(0.01,)), "measured_dcm_band_m"),
+    ("negative measured-DCM band", lambda: RobustParams(measured_dcm_band_m=(0.01, -0.02)), "measured_dcm_band_m"),
 ]
 
 

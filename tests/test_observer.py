@@ -168,3 +168,33 @@ def test_midrange_filter_rate_limit_and_band():
         MidrangeParams(max_change_mps2=0.0)
     with pytest.raises(ParameterError):
         MidrangeParams(band_half_width_mps2=0.2)
+
+
+def test_moving_average_removes_a_periodic_part_and_passes_a_constant():
+    """Over one period of the window, a gait-periodic estimate averages to its mean; a constant
+    force added to it is passed in full once one window has elapsed."""
+    from robust_ismpc.observer import MovingAverage
+
+    window = 140  # one G1 stride at δ = 0.01 s
+    k = np.arange(5 * window)
+    periodic = np.column_stack([0.3 * np.sin(2 * np.pi * k / window), 0.1 * np.cos(2 * np.pi * k / (window / 2))])
+    bias = np.array([0.04, -0.01])
+    step = np.where(k[:, None] >= 2 * window, np.array([1.1, 0.0]), 0.0)
+    average = MovingAverage(window)
+    out = np.array([average.update(bias + periodic[i] + step[i]) for i in k])
+    np.testing.assert_allclose(out[window - 1], bias, atol=1e-12)
+    np.testing.assert_allclose(out[2 * window - 1], bias, atol=1e-12)
+    np.testing.assert_allclose(out[-1], bias + [1.1, 0.0], atol=1e-12)
+    # half a window after the step, half of it has passed
+    np.testing.assert_allclose(out[2 * window + window // 2 - 1, 0], bias[0] + 0.55, atol=1e-12)
+
+
+def test_moving_average_of_one_sample_passes_through_and_validates():
+    from robust_ismpc.observer import MovingAverage
+
+    average = MovingAverage(1)
+    for value in ([0.3, -0.2], [1.0, 2.0]):
+        np.testing.assert_array_equal(average.update(np.array(value)), value)
+    for bad in (0, -3, 2.5):
+        with pytest.raises(ParameterError):
+            MovingAverage(bad)

@@ -188,3 +188,68 @@ def test_cached_feasibility_bounds_equal_a_fresh_computation():
             np.testing.assert_allclose(by, feasibility_bounds_at(fy, remaining), atol=1e-12)
             checked += 1
     assert checked > 100
+
+
+def _walk_open_loop_to_single_support(controller, plan, step_index):
+    """Step the controller without measurements to 0.1 s into the single support of ``step_index``."""
+    t_target = plan.ss_start_s[step_index] + 0.1
+    t = 0.0
+    while t < t_target - 1e-9:
+        controller.step(t)
+        t = round(t + controller.dt, 9)
+    return t
+
+
+def _measurement_of_model(controller, shift_m, dcm_error_m=(0.0, 0.0)):
+    """The internal model as a measurement, whole robot translated by ``shift_m``, with an extra
+    DCM error (as CoM velocity)."""
+    com = controller.state[0] + shift_m
+    vel = controller.state[1] + controller.eta * np.asarray(dcm_error_m)
+    left = controller.feet[1].pos_m[:2] + shift_m
+    right = controller.feet[-1].pos_m[:2] + shift_m
+    return Measurement(com_pos_m=np.append(com, ROBOT.com_height_m), com_vel_mps=np.append(vel, 0.0),
+                       left_sole_m=left, right_sole_m=right)
+
+
+def test_measured_dcm_excess_is_relative_to_the_stance_sole_with_a_dead_band():
+    """A whole-robot drift gives no excess; a DCM error beyond the band gives error − band per axis."""
+    from robust_ismpc.robust import RobustParams
+
+    band = (0.01, 0.02)
+    controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",),
+                                       params=RobustParams(measured_dcm_band_m=band))
+    plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+    controller.reset(plan, np.zeros(2))
+    t = _walk_open_loop_to_single_support(controller, plan, 4)
+    drift = np.array([0.37, -0.21])
+    np.testing.assert_allclose(controller.measured_dcm_excess(t, _measurement_of_model(controller, drift)), 0.0,
+                               atol=1e-12)
+    excess = controller.measured_dcm_excess(t, _measurement_of_model(controller, drift, [0.025, -0.005]))
+    np.testing.assert_allclose(excess, [0.015, 0.0], atol=1e-12)
+    excess = controller.measured_dcm_excess(t, _measurement_of_model(controller, drift, [-0.004, -0.05]))
+    np.testing.assert_allclose(excess, [0.0, -0.03], atol=1e-12)
+    # in double support there is no stance sole to refer to
+    t_ds = plan.touchdown_s[4] + 0.05
+    assert controller.measured_dcm_excess(t_ds, _measurement_of_model(controller, drift)) is None
+
+
+def test_measured_dcm_error_reaches_the_timing_module_only_with_a_band():
+    """On an internal-model controller (feedback gains 0) a forward DCM jump in single support is
+    invisible to the timing module unless the measured-DCM band is set; with it, the current step
+    is shortened (the paper's reaction to a hit from behind)."""
+    from robust_ismpc.robust import RobustParams
+
+    results = {}
+    for band in (None, (0.005, 0.01)):
+        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), state_feedback_gain=0.0,
+                                           params=RobustParams(measured_dcm_band_m=band))
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        t = _walk_open_loop_to_single_support(controller, plan, 5)
+        touchdown = plan.touchdown_s[5]
+        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.08, 0.0]))
+        results[band] = (controller.timing_adaptations, plan.touchdown_s[5], touchdown)
+    adaptations, new, old = results[None]
+    assert adaptations == 0 and new == old
+    adaptations, new, old = results[(0.005, 0.01)]
+    assert adaptations == 1 and new < old - 0.05
