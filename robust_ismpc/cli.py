@@ -317,7 +317,15 @@ def _compare_scenario(args) -> int:
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
     labels = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
-    plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}")
+    events = []
+    ball = result.run.details.get("ball")
+    if ball:
+        events.append(("ball hit (planned)", ball["hit_s"]))
+    for force in result.run.details.get("forces", []):
+        kind = "push" if force.get("t_end_s") is not None else "constant force"
+        events.append((f"{kind} {math.hypot(force['fx_n'], force['fy_n']):.0f} N", force["t_start_s"]))
+    plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
+                    events=events)
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "

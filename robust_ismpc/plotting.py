@@ -114,8 +114,13 @@ def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     return Path(path)
 
 
-def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | Path, title: str = "") -> Path:
-    """Side-by-side gait figures of several runs on the same disturbances (one column each)."""
+def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | Path, title: str = "",
+                    events: Sequence[tuple[str, float]] = ()) -> Path:
+    """Side-by-side gait figures of several runs on the same disturbances (one column each).
+
+    ``events`` are (label, time [s]) pairs, e.g. a ball hit or the start of a push, drawn as
+    vertical lines on every time axis.
+    """
     plt = _pyplot()
     n = len(traces)
     fig = plt.figure(figsize=(7 * n, 11))
@@ -126,6 +131,11 @@ def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | 
         axes.append(fig.add_subplot(grid[2, col], sharex=axes[1]))
         axes.append(fig.add_subplot(grid[3, col], sharex=axes[1]))
         _draw_run(axes, trace, label)
+        for name, t_event in events:
+            for ax in axes[1:]:
+                ax.axvline(t_event, color="black", linestyle=":", linewidth=1.0)
+            axes[1].annotate(name, (t_event, 1.0), xycoords=("data", "axes fraction"), xytext=(2, -10),
+                             textcoords="offset points", fontsize=8)
     if title:
         fig.suptitle(title)
     fig.tight_layout()

@@ -87,3 +87,34 @@ def test_bench_writes_json(tmp_path):
     data = json.loads((tmp_path / "bench.json").read_text())
     h = data["horizons"][0]
     assert h["C"] == 20 and h["solve_ms"]["median"] > 0 and "quadprog" in h["solvers"]
+
+
+BAD_OTHER_ARGS = [
+    (["run", "--controller", "robust", "--delta-max", "5", "--duration", "1"], "the largest guaranteed delta_max"),
+    (["run", "--sim", "mujoco", "--robot", "hrp4", "--duration", "1"], "robots available with --sim mujoco: g1, op3"),
+    (["compare", "paper-nothing"], "scenarios are: paper-bag, paper-ball, paper-push"),
+    (["compare", "paper-ball", "--vx", "0.3"], "--vx is not allowed"),
+    (["soak", "--vx", "nan"], "vx must be finite"),
+    (["soak", "--minutes", "0"], "minutes must be a finite number > 0"),
+    (["soak", "--sim", "gazebo"], "unknown simulator 'gazebo'"),
+    (["soak", "--push-max", "-3"], "push_max_n must be a finite number >= 0"),
+    (["soak", "--modules", "foo"], "unknown module 'foo'"),
+    (["sweep", "--controllers", "nominal,zzz", "--impulse-max", "10"], "unknown controller 'zzz'"),
+    (["sweep", "--impulse-max", "-10"], "impulse_max_ns must be a finite number > 0"),
+    (["bench", "--horizons", "0"], "--horizons must be >= 2 samples"),
+    (["bench", "--cycles", "5"], "--cycles must be >= 10"),
+]
+
+
+@pytest.mark.parametrize("argv,message", BAD_OTHER_ARGS, ids=[" ".join(a[:3]) for a, _ in BAD_OTHER_ARGS])
+def test_bad_input_of_other_commands_exits_2_with_one_line(tmp_path, capsys, argv, message):
+    """compare, soak, sweep and the robust/MuJoCo paths of run: exit status 2, one stderr line,
+    nothing written."""
+    out = tmp_path / "o"
+    with pytest.raises(SystemExit) as exc:
+        raise SystemExit(main([*argv, "--out", str(out)]))
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert message in err and "Traceback" not in err
+    assert not out.exists() or not any(out.iterdir())
