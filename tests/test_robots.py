@@ -123,3 +123,25 @@ def test_unknown_key_is_rejected(tmp_path: Path) -> None:
     path.write_text('colour = "red"\n' + path.read_text())
     with pytest.raises(ParameterError, match="colour"):
         load_robot(path)
+
+
+BAD_TOML_VALUES = [
+    ("sole_length_m", "0", "sole_length_m must be a finite number > 0"),
+    ("sole_length_m", "nan", "sole_length_m must be a finite number > 0"),
+    ("sole_length_m", "-0.1", "sole_length_m must be a finite number > 0"),
+    ("sole_width_m", "0", "sole_width_m must be a finite number > 0"),
+    ("left_sole_offset_m", "[0.0, 0.0]", "left_sole_offset_m must be 3 finite numbers"),
+    ("swing_height_m", "-0.01", "swing_height_m must be a finite number >= 0"),
+    ("swing_height_m", "nan", "swing_height_m must be a finite number >= 0"),
+    ("root_body", '"nobody"', "root_body 'nobody' not found in the model"),
+    ("foot_frame_type", '"wheel"', "foot_frame_type must be 'site' or 'body'"),
+]
+
+
+@pytest.mark.parametrize("key,value,message", BAD_TOML_VALUES, ids=[f"{k}={v}" for k, v, _ in BAD_TOML_VALUES])
+def test_bad_toml_value_raises_our_exception(tmp_path: Path, key: str, value: str, message: str) -> None:
+    """Each bad value in a robot file raises ParameterError or ModelError naming it, on one line."""
+    pytest.importorskip("mujoco")
+    with pytest.raises((ParameterError, ModelError)) as info:
+        load_robot(_user_toml(tmp_path, **{key: value})).params()
+    assert message in str(info.value) and "\n" not in str(info.value)
