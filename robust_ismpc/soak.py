@@ -35,10 +35,12 @@ class SoakSpec:
     duration_s : float
         Simulated time [s].
     push_max_n : float or None
-        Largest push force [N] (0.1 s pushes); None: 8 N scaled by the robot mass relative
-        to the G1's 33.3 kg. On the g1 LIP the robust controller's smallest survived 0.1 s push
-        over directions and phases is about 20 N (benchmarks/lip_envelope.py, ismpc sweep), and
-        a 20 N soak fell after 57 s at an unlucky phase: 8 N stays inside it (the smallest lateral capacity over all gait phases, double support included, is 11 N for both nominal and robust).
+        Largest push force [N] (0.1 s pushes); None: 8 N scaled by the robot mass relative to
+        the G1's 33.3 kg. On the g1 LIP the robust controller's smallest survived 0.1 s push over
+        directions and single-support phases is 17 N (1.72 N s, ``ismpc sweep``,
+        docs/sweeps.md), and the smallest lateral capacity over all gait phases, double support
+        included, was 11 N for nominal and robust (measured before the feasibility governor); a
+        20 N soak fell after 57 s at an unlucky phase. 8 N stays inside all of these.
     push_interval_s : tuple of float
         Range of the time between pushes [s].
     vx_mps : float or None
