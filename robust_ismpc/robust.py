@@ -61,7 +61,10 @@ class RobustParams:
     delta_max_fraction : float
         Used when ``delta_max_mps2`` is None, in (0, 1).
     observer_poles : tuple of float
-        Discrete poles of the (CoM, CoM velocity, disturbance) estimation error.
+        Discrete poles of the (CoM, CoM velocity, disturbance) estimation error. Default
+        (0.3, 0.4, 0.5), faster than the reference code's (0.6, 0.7, 0.8): the governor keeps a
+        fast estimate from over-compensating pushes (with the old poles it reached 33.8 N
+        constant +x on the g1 LIP instead of 37.8 N).
     observer_zmp_pole : float
         Discrete pole of the ZMP estimation error.
     persistence_s : float

@@ -259,3 +259,18 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
     frames = sum(1 for _ in reader)
     assert 14 <= frames <= 16
     assert trace.times.render_s > 0
+
+
+@pytest.mark.parametrize("kwargs,message", [
+    ({"disturbance_average_strides": -1.0}, "disturbance_average_strides"),
+    ({"disturbance_average_strides": float("nan")}, "disturbance_average_strides"),
+    ({"measured_dcm_band_m": (0.01,)}, "measured_dcm_band_m"),
+    ({"measured_dcm_band_m": (0.01, -0.01)}, "measured_dcm_band_m"),
+    ({"state_feedback_gain": 1.5}, "state_feedback_gain"),
+])
+def test_bad_walk_settings_raise_parameter_error(kwargs, message):
+    from robust_ismpc.exceptions import ParameterError
+    from robust_ismpc.sim.run import WalkSettings
+
+    with pytest.raises(ParameterError, match=message):
+        WalkSettings(**kwargs)
