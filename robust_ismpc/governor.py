@@ -26,7 +26,7 @@ import numpy as np
 
 from .exceptions import ParameterError
 
-__all__ = ["admissible_disturbance", "governed_disturbance"]
+__all__ = ["admissible_disturbance", "governed_disturbance", "interval_unchecked", "target_unchecked"]
 
 
 def admissible_disturbance(
@@ -51,10 +51,9 @@ def admissible_disturbance(
     if not (np.isfinite(eta) and eta > 0):
         raise ParameterError(f"eta must be a finite number > 0, got {eta!r}")
     d = _pair(dcm_local_m, "dcm_local_m")
-    eta2 = eta * eta
     lower = _pair(lower_m, "lower_m", allow_inf=True)
     upper = _pair(upper_m, "upper_m", allow_inf=True)
-    return (lower - d) * eta2, (upper - d) * eta2
+    return interval_unchecked(d, lower, upper, eta * eta)
 
 
 def governed_disturbance(
@@ -81,8 +80,19 @@ def governed_disturbance(
     fresh = _pair(fresh_mps2, "fresh_mps2")
     low = _pair(low_mps2, "low_mps2", allow_inf=True)
     high = _pair(high_mps2, "high_mps2", allow_inf=True)
+    return target_unchecked(persistent, fresh, low, high)
+
+
+def interval_unchecked(dcm_local_m: np.ndarray, lower_m: np.ndarray, upper_m: np.ndarray, eta2: float):
+    """:func:`admissible_disturbance` without input checks, for the controller's per-cycle use
+    (its inputs are its own finite arrays of shape (2,)); ``eta2`` = η²."""
+    return (lower_m - dcm_local_m) * eta2, (upper_m - dcm_local_m) * eta2
+
+
+def target_unchecked(persistent: np.ndarray, fresh: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """:func:`governed_disturbance` without input checks (see :func:`interval_unchecked`)."""
     inside = (persistent >= low) & (persistent <= high)
-    return np.where(inside, np.clip(fresh, low, np.maximum(low, high)), persistent)
+    return np.where(inside, np.minimum(np.maximum(fresh, low), np.maximum(low, high)), persistent)
 
 
 def _pair(value, name: str, allow_inf: bool = False) -> np.ndarray:

@@ -28,7 +28,7 @@ from .controller import IsmpcController
 from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at
 from .footsteps import LEFT
-from .governor import admissible_disturbance, governed_disturbance
+from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
 from .observer import (
     DisturbanceObserver,
@@ -303,10 +303,10 @@ class RobustIsmpcController(IsmpcController):
         bx, by, R, origin = self._current_bounds(t_s, j, state, plan.touchdown_s[j] - t_s)
         if self._dcm_excess_m is not None:
             dcm_m = dcm_m + self._dcm_excess_m
-        low, high = admissible_disturbance(
-            R.T @ (dcm_m - origin), np.array([bx[0], by[0]]), np.array([bx[1], by[1]]), self.eta
+        low, high = interval_unchecked(
+            R.T @ (dcm_m - origin), np.array([bx[0], by[0]]), np.array([bx[1], by[1]]), self.eta**2
         )
-        return R @ governed_disturbance(R.T @ persistent, R.T @ self.fresh_disturbance_mps2, low, high)
+        return R @ target_unchecked(R.T @ persistent, R.T @ self.fresh_disturbance_mps2, low, high)
 
     def measured_dcm_excess(self, t_s: float, measurement: Measurement) -> np.ndarray | None:
         """Measured DCM error relative to the stance sole beyond ``measured_dcm_band_m``.
