@@ -290,7 +290,7 @@ def _compare_scenario(args) -> int:
     from .io import atomic_write_json
     from .plotting import plot_comparison
     from .runner import parse_modules
-    from .scenarios import get_scenario, run_scenario
+    from .scenarios import disturbance_events, get_scenario, run_scenario
 
     scenario = get_scenario(args.scenario)
     fixed = {"--robot": (args.robot, scenario.robot), "--sim": (args.sim, "mujoco")}
@@ -317,15 +317,8 @@ def _compare_scenario(args) -> int:
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
     labels = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
-    events = []
-    ball = result.run.details.get("ball")
-    if ball:
-        events.append(("ball hit (planned)", ball["hit_s"]))
-    for force in result.run.details.get("forces", []):
-        kind = "push" if force.get("t_end_s") is not None else "constant force"
-        events.append((f"{kind} {math.hypot(force['fx_n'], force['fy_n']):.0f} N", force["t_start_s"]))
     plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
-                    events=events)
+                    events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "

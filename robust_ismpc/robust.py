@@ -48,6 +48,15 @@ from .step_timing import StaParams, should_adapt, solve_sta
 MODULES = ("observer", "restriction", "timing")
 
 
+def check_dcm_band(owner: str, band) -> None:
+    """Raise ParameterError unless ``band`` is None or two finite numbers >= 0 (x, y) [m]."""
+    if band is not None and not (
+        isinstance(band, (tuple, list)) and len(band) == 2
+        and all(isinstance(b, (int, float)) and math.isfinite(b) and b >= 0 for b in band)
+    ):
+        raise ParameterError(f"{owner}.measured_dcm_band_m must be None or two finite numbers >= 0 (x, y) [m], got {band!r}")
+
+
 @dataclass(frozen=True)
 class RobustParams:
     """Settings of the robustness modules.
@@ -133,13 +142,7 @@ class RobustParams:
             raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
         if not (isinstance(self.average_s, (int, float)) and math.isfinite(self.average_s) and self.average_s >= 0):
             raise ParameterError(f"RobustParams.average_s must be a finite number >= 0, got {self.average_s!r}")
-        if self.measured_dcm_band_m is not None:
-            band = self.measured_dcm_band_m
-            if not (isinstance(band, (tuple, list)) and len(band) == 2
-                    and all(isinstance(b, (int, float)) and math.isfinite(b) and b >= 0 for b in band)):
-                raise ParameterError(
-                    f"RobustParams.measured_dcm_band_m must be None or two finite numbers >= 0 (x, y) [m], got {band!r}"
-                )
+        check_dcm_band("RobustParams", self.measured_dcm_band_m)
         if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
                 and self.midrange_rate_mps3 > 0):
             raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
@@ -233,7 +236,6 @@ class RobustIsmpcController(IsmpcController):
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
-        self._target_pending = False
         self.timing = _TimingRecord()
 
     # ------------------------------------------------------------------------------------
@@ -253,7 +255,6 @@ class RobustIsmpcController(IsmpcController):
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
-        self._target_pending = False
 
     @property
     def timing_adaptations(self) -> int:
@@ -268,7 +269,6 @@ class RobustIsmpcController(IsmpcController):
         if measurement is not None and self.robust_params.measured_dcm_band_m is not None:
             self._dcm_excess_m = self.measured_dcm_excess(t_s, measurement)
         self.info.observer_time_s = 0.0
-        self._target_pending = False
         if self.observer is None or measurement is None:
             return
         start = time.perf_counter()
@@ -276,13 +276,12 @@ class RobustIsmpcController(IsmpcController):
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.average.update(self.persistence.update(w_hat))
-        self.fresh_disturbance_mps2 = self.fresh_average.update(w_hat)
-        self._target_pending = True  # w̃ is updated in _mpc_state, where the DCM is known
+        self.fresh_disturbance_mps2 = self.fresh_average.update(w_hat)  # w̃ follows in _mpc_state
         self.info.observer_time_s = time.perf_counter() - start
 
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
         state = super()._mpc_state(t_s, measurement)
-        if not self._target_pending:
+        if self.observer is None or measurement is None:  # no new estimate this cycle
             return state
         start = time.perf_counter()
         dcm = state.dcm_m - self.disturbance_mps2 / self.eta**2  # x_u, unshifted

@@ -615,6 +615,21 @@ def _timing_after(trace, t_from: float, window_s: float = 0.5) -> dict:
     }
 
 
+def disturbance_events(run: ScenarioRun) -> list[tuple[str, float]]:
+    """The disturbances of a realised scenario as (label, start time [s]), for figures.
+
+    The planned ball hit, then every force window in time order ("push" when it ends,
+    "constant force" when it lasts to the end of the run), labelled with its magnitude in N.
+    """
+    events = []
+    if "ball" in run.details:
+        events.append(("ball hit (planned)", float(run.details["ball"]["hit_s"])))
+    for force in sorted(run.nominal.forces, key=lambda f: f.t_start_s):
+        kind = "push" if math.isfinite(force.t_end_s) else "constant force"
+        events.append((f"{kind} {math.hypot(force.fx_n, force.fy_n):.0f} N", float(force.t_start_s)))
+    return events
+
+
 def comparison_metrics(run: ScenarioRun, results: dict[str, RunResult]) -> dict:
     """``comparison.json`` content for a realised scenario and its two results.
 

@@ -161,3 +161,15 @@ def test_paper_ball_robust_survives_nominal_falls(tmp_path) -> None:
     assert not comparison["robust"]["fell"]
     assert comparison["nominal"]["fell"]
     np.testing.assert_array_less(comparison["robust"]["time_to_step_after_hit_s"], 0.25)
+
+
+def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:
+    """Figure markers: the planned hit for paper-ball; the constant force then the push for paper-push."""
+    from robust_ismpc.scenarios import disturbance_events
+
+    ball = realise("paper-ball")
+    assert disturbance_events(ball) == [("ball hit (planned)", ball.details["ball"]["hit_s"])]
+    push = realise("paper-push")
+    labels, times = zip(*disturbance_events(push))
+    assert labels == ("constant force 38 N", "push 71 N")
+    assert times == (3.0, 6.0)

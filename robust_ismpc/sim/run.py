@@ -35,6 +35,7 @@ from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..planner import plan_footsteps
 from ..report import summarize
 from ..robots.spec import BUILTIN_ROBOTS, load_robot
+from ..robust import RobustParams, check_dcm_band
 from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
@@ -120,12 +121,7 @@ class WalkSettings:
         strides = self.disturbance_average_strides
         if not (isinstance(strides, (int, float)) and math.isfinite(strides) and strides >= 0):
             raise ParameterError(f"WalkSettings.disturbance_average_strides must be a finite number >= 0, got {strides!r}")
-        band = self.measured_dcm_band_m
-        if band is not None and not (
-            isinstance(band, (tuple, list)) and len(band) == 2
-            and all(isinstance(b, (int, float)) and math.isfinite(b) and b >= 0 for b in band)
-        ):
-            raise ParameterError(f"WalkSettings.measured_dcm_band_m must be None or two finite numbers >= 0 [m], got {band!r}")
+        check_dcm_band("WalkSettings", self.measured_dcm_band_m)
 
 
 #: Observer poles on the full robots: the reference code's (0.6, 0.7, 0.8), slower than the LIP
@@ -277,12 +273,10 @@ def run_mujoco_spec(
     )
     options = {}
     if spec.modules:
-        from ..robust import RobustParams
-
-        robust = {"observer_poles": settings.observer_poles} if settings.observer_poles is not None else {}
+        poles = {"observer_poles": settings.observer_poles} if settings.observer_poles is not None else {}
         options["params"] = RobustParams(
             measured_dcm_band_m=settings.measured_dcm_band_m,
-            average_s=settings.disturbance_average_strides * 2.0 * params.T_step_s, **robust,
+            average_s=settings.disturbance_average_strides * 2.0 * params.T_step_s, **poles,
         )
     controller = make_controller(
         params, spec, state_feedback_gain=settings.state_feedback_gain,
