@@ -111,6 +111,16 @@ class IsmpcController:
         what an online planner integrating the command from the current support does (T-RO
         §III); without it, after a push the candidates and the anticipative tail stay behind
         (or beside) the robot and pull the ZMP back.
+    path_feedback_gain : float, optional
+        Feedback of where the feet really land, for robots whose plan does not follow the real
+        feet (``anchor_landed_footsteps=False``, the internal-model MuJoCo loop). At each
+        touchdown the lateral part (across the footstep's heading) of the landed sole's error
+        from its unmoved planned place is measured, and every later footstep and candidate is
+        moved by ``-gain`` times it (at most ``path_feedback_max_m``): a robot that places its
+        feet a little off to one side every step (soft servos under a load) is steered back to
+        the planned path instead of drifting off it. In [0, 1]; default 0 (off).
+    path_feedback_max_m : float, optional
+        Largest move of the later footsteps per touchdown [m] (default 0.02).
     """
 
     def __init__(
@@ -122,12 +132,24 @@ class IsmpcController:
         velocity_feedback_gain: float | None = None,
         anchor_landed_footsteps: bool = True,
         replan_on_landing: bool = True,
+        path_feedback_gain: float = 0.0,
+        path_feedback_max_m: float = 0.02,
     ):
         if velocity_feedback_gain is None:
             velocity_feedback_gain = state_feedback_gain
         for name, gain in (("state_feedback_gain", state_feedback_gain), ("velocity_feedback_gain", velocity_feedback_gain)):
             if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
                 raise ParameterError(f"{name} must be in [0, 1], got {gain!r}")
+        if not (isinstance(path_feedback_gain, (int, float)) and 0.0 <= path_feedback_gain <= 1.0):
+            raise ParameterError(f"path_feedback_gain must be in [0, 1], got {path_feedback_gain!r}")
+        if not (isinstance(path_feedback_max_m, (int, float)) and math.isfinite(path_feedback_max_m)
+                and path_feedback_max_m > 0):
+            raise ParameterError(f"path_feedback_max_m must be a finite number > 0, got {path_feedback_max_m!r}")
+        if path_feedback_gain > 0 and anchor_landed_footsteps:
+            raise ParameterError(
+                "path_feedback_gain needs anchor_landed_footsteps=False: with anchoring the plan "
+                "already moves to the real feet"
+            )
         self.robot = robot
         self.mpc_params = mpc if mpc is not None else MpcParams()
         if not isinstance(robot, RobotParams):
@@ -145,6 +167,8 @@ class IsmpcController:
         self.velocity_feedback_gain = float(velocity_feedback_gain)
         self.anchor_landed_footsteps = bool(anchor_landed_footsteps)
         self.replan_on_landing = bool(replan_on_landing)
+        self.path_feedback_gain = float(path_feedback_gain)
+        self.path_feedback_max_m = float(path_feedback_max_m)
         self.modules: frozenset[str] = frozenset()
         self.info = CycleInfo()
         self._log = _RateLimitedLog()
@@ -195,6 +219,7 @@ class IsmpcController:
         self.last_plan: MpcPlan | None = None
         self.last_zmp_vel_mps = np.zeros(2)
         self._anchored_step = 1
+        self.path_shift_m = np.zeros(2)  # total move of the later footsteps by the path feedback
         self._swing_step: dict[int, int] = {}
         self.fallback_cycles = 0
         self.infeasible_count = 0
@@ -250,16 +275,27 @@ class IsmpcController:
         if j < 2 or j <= self._anchored_step or t_s < plan.touchdown_s[j] - 1e-9:
             return
         self._anchored_step = j
-        if self.anchor_landed_footsteps and measurement is not None:
-            side = int(plan.side[j])
-            sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
-            if sole is not None:
-                plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
-                self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
+        sole = None
+        if measurement is not None:
+            sole = measurement.left_sole_m if int(plan.side[j]) == LEFT else measurement.right_sole_m
+        if self.anchor_landed_footsteps and sole is not None:
+            plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+            self.feet[int(plan.side[j])].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
             offset = plan.pos_m[j] - plan.candidate_pos_m[j]
             plan.candidate_pos_m[j:] += offset
             plan.pos_m[j + 1 :] += offset
+        if self.path_feedback_gain > 0 and sole is not None:
+            # the error from where the plan put footstep j before the feedback moved it
+            error = np.asarray(sole, dtype=float)[:2] - (plan.pos_m[j] + self.path_shift_m)
+            across = np.array([-math.sin(plan.yaw_rad[j]), math.cos(plan.yaw_rad[j])])
+            shift = self.path_feedback_gain * float(error @ across) * across
+            norm = float(np.linalg.norm(shift))
+            if norm > self.path_feedback_max_m:
+                shift *= self.path_feedback_max_m / norm
+            plan.candidate_pos_m[j + 1 :] -= shift
+            plan.pos_m[j + 1 :] -= shift
+            self.path_shift_m = self.path_shift_m + shift
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
         """Hook run first in every cycle (the robust controller updates its observer here)."""
@@ -300,8 +336,7 @@ class IsmpcController:
         self.info.build_time_s = self.info.solve_time_s = 0.0
         if measurement is not None:
             values = [measurement.com_pos_m, measurement.com_vel_mps]
-            if measurement.zmp_m is not None:
-                values.append(measurement.zmp_m)
+            values += [v for v in (measurement.zmp_m, measurement.lip_zmp_m) if v is not None]
             if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
         self._anchor_landed(t_s, measurement)
@@ -358,4 +393,5 @@ class IsmpcController:
             support=support,
             step_index=int(j),
             time_to_step_s=max(0.0, float(touchdown - t_next)) if swinging else 0.0,
+            disturbance_mps2=self.disturbance_mps2.copy(),
         )

@@ -48,13 +48,38 @@ def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | N
         first = False
     cand = trace.candidate_footsteps_m[1:][done[1:]]
     ax.plot(cand[:, 0], cand[:, 1], "+", color="k", ms=5, alpha=0.5, label="candidate footsteps" if label else None)
+    _measured_footprints(ax, trace, done, corners, color)
+
+
+def _measured_footprints(ax, trace: Trace, done: np.ndarray, corners: np.ndarray, color: str) -> None:
+    """Filled footprints where a full robot's feet really were, 0.05 s after each planned touchdown
+    (the plan's footsteps are where the controller's internal model puts them)."""
+    from matplotlib.patches import Polygon
+
+    soles = trace.channels.get("sole_meas_m")
+    if soles is None or not np.isfinite(soles).any():
+        return
+    yaws = trace.channels["sole_meas_yaw_rad"]
+    t = trace["t_s"]
+    first = True
+    for j in np.flatnonzero(done[2:]) + 2:
+        k = min(int(np.searchsorted(t, trace.footstep_touchdown_s[j] + 0.05)), len(t) - 1)
+        column = 0 if trace.footstep_side[j] > 0 else 1
+        pos, yaw = soles[k, 2 * column : 2 * column + 2], yaws[k, column]
+        if not np.all(np.isfinite(pos)):
+            continue
+        c, s = np.cos(yaw), np.sin(yaw)
+        ax.add_patch(Polygon(pos + corners @ np.array([[c, s], [-s, c]]), closed=True, lw=0,
+                             fc=color if column == 0 else "tab:gray", alpha=0.25,
+                             label="real footsteps (measured)" if first else None))
+        first = False
 
 
 def _draw_run(axes, trace: Trace, title: str) -> None:
     t = trace["t_s"]
     t_end = float(t[-1]) if len(t) else 0.0
     top, ax_x, ax_y, ax_w = axes
-    _footstep_patches(top, trace, t_end, "tab:blue", "footsteps (left blue)")
+    _footstep_patches(top, trace, t_end, "tab:blue", "planned footsteps (left blue)")
     top.plot(trace["zmp_m"][:, 0], trace["zmp_m"][:, 1], color="tab:orange", lw=1, label="ZMP")
     top.plot(trace["com_m"][:, 0], trace["com_m"][:, 1], color="tab:green", lw=1.5, label="CoM")
     top.set_aspect("equal", adjustable="datalim")

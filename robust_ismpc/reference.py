@@ -7,7 +7,7 @@ The controller never touches simulator data: a simulator (LIP or MuJoCo) turns i
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,6 +37,13 @@ class Measurement:
     left_sole_m, right_sole_m : ndarray, shape (2,) or None
         Measured sole positions (xy) [m], when available. The controller uses them to place a
         footstep where the foot actually landed.
+    lip_zmp_m : ndarray, shape (2,) or None
+        The ZMP of the equivalent LIP: the centre of pressure shifted by the robot's own
+        angular-momentum rate, ``(+L̇_y, -L̇_x) / f_z`` (``f_z`` the total normal contact
+        force). A multibody robot swings its legs and arms; the contact CoP follows that spin,
+        which a LIP does not have, and an observer fed the raw CoP reads it as a disturbance.
+        External forces and moments (a push, a load) still shift this point: at rest ``L̇ = 0``
+        and it equals the CoP. When given, the disturbance observer uses it instead of ``zmp_m``.
     """
 
     com_pos_m: np.ndarray
@@ -44,6 +51,7 @@ class Measurement:
     zmp_m: np.ndarray | None = None
     left_sole_m: np.ndarray | None = None
     right_sole_m: np.ndarray | None = None
+    lip_zmp_m: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -94,6 +102,10 @@ class GaitReference:
         Index in the footstep plan of the step under way.
     time_to_step_s : float
         Remaining single-support time of the current step [s] (0 in double support).
+    disturbance_mps2 : ndarray, shape (2,)
+        Disturbance (x, y) [m/s^2] the plan was made for, as an acceleration of the CoM (the
+        estimate ŵ of the robust controller; zero for the nominal one). A whole-body layer
+        with torque feedforward realises ``com_acc_mps2`` with the force ``m ŵ`` acting.
     """
 
     t_s: float
@@ -107,3 +119,4 @@ class GaitReference:
     support: Support
     step_index: int
     time_to_step_s: float
+    disturbance_mps2: np.ndarray = field(default_factory=lambda: np.zeros(2))

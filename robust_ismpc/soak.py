@@ -45,7 +45,7 @@ class SoakSpec:
         Range of the time between pushes [s].
     vx_mps : float or None
         Forward speed command [m/s]; None: :data:`DEFAULT_VX_MPS` of the simulator (0.2 on the
-        LIP, 0.1 in MuJoCo: G1 walking forward undisturbed at 0.2 m/s falls at 38 s, lateral
+        LIP, 0.1 in MuJoCo: G1 walking forward undisturbed at 0.2 m/s falls at 32-38 s, lateral
         drift of the CoM relative to the stance foot over two steps, while at 0.1 m/s it walked
         200 s; see docs/robots.md).
     seed : int

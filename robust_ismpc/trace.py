@@ -24,8 +24,10 @@ CHANNELS: dict[str, tuple[int, ...]] = {
     "box_half_m": (2,),
     "box_yaw_rad": (),
     "zmp_violation_m": (),
-    "left_foot_m": (3,),
+    "left_foot_m": (3,),  # reference soles (the plan's)
     "right_foot_m": (3,),
+    "sole_meas_m": (4,),  # measured soles (left x, y, right x, y) on a full robot; NaN on the LIP
+    "sole_meas_yaw_rad": (2,),  # their yaws (left, right)
     "support": (),  # 0 double, 1 left, -1 right
     "step_index": (),
     "time_to_step_s": (),

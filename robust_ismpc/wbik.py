@@ -315,7 +315,10 @@ class WholeBodyIk:
         self.set_reference(reference)
         return self.solve(dt_s, measured_base_qpos)
 
-    def static_torques(self, left_load: float, left_contact: bool = True, right_contact: bool = True) -> np.ndarray:
+    def static_torques(
+        self, left_load: float, left_contact: bool = True, right_contact: bool = True,
+        com_force_n: np.ndarray | None = None,
+    ) -> np.ndarray:
         r"""Generalised forces that hold the reference configuration still under gravity.
 
         The sole wrenches are the weighted minimum-norm solution of the floating-base
@@ -329,13 +332,15 @@ class WholeBodyIk:
             Share of the weight on the left foot, in [0, 1].
         left_contact, right_contact : bool
             Which feet carry load (at least one).
+        com_force_n : ndarray, shape (3,), optional
+            External force acting on the CoM [N] (see :meth:`inverse_dynamics_torques`).
 
         Returns
         -------
         ndarray, shape (model.nv,)
             Torques [N m] (zero on the floating-base coordinates).
         """
-        return self.inverse_dynamics_torques(None, None, left_load, left_contact, right_contact)
+        return self.inverse_dynamics_torques(None, None, left_load, left_contact, right_contact, com_force_n)
 
     def inverse_dynamics_torques(
         self,
@@ -344,6 +349,7 @@ class WholeBodyIk:
         left_load: float,
         left_contact: bool = True,
         right_contact: bool = True,
+        com_force_n: np.ndarray | None = None,
     ) -> np.ndarray:
         r"""Joint torques that realise the reference configuration's motion with the feet as contacts.
 
@@ -361,6 +367,12 @@ class WholeBodyIk:
             Share of the vertical load on the left foot in double support, in [0, 1].
         left_contact, right_contact : bool
             Which feet carry load (at least one; none gives zero torques).
+        com_force_n : ndarray, shape (3,), optional
+            External force [N] acting on every body in proportion to its mass, i.e. a uniform
+            acceleration ``com_force_n / m`` of the whole robot (the LIP's disturbance ``w``
+            times the mass). Its generalised force :math:`J_{com}^T F` is subtracted from the
+            inverse dynamics: the feet then carry only the rest, and the joints hold the
+            posture against the force.
 
         Returns
         -------
@@ -382,6 +394,10 @@ class WholeBodyIk:
             mujoco.mj_comVel(m, d)
             bias = np.empty(m.nv)
             mujoco.mj_rne(m, d, 1, bias)
+        if com_force_n is not None and np.any(com_force_n):
+            jac_com = np.empty((3, m.nv))
+            mujoco.mj_jacSubtreeCom(m, d, jac_com, 1)
+            bias = bias - jac_com.T @ np.asarray(com_force_n, dtype=float)
         sides = [s for s, flag in (("left", left_contact), ("right", right_contact)) if flag]
         if not sides:
             return np.zeros(m.nv)

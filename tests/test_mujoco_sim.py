@@ -77,8 +77,9 @@ def test_cop_equals_com_projection_when_still(robot_spec: RobotSpec) -> None:
     assert trace.max_zmp_outside_m == 0.0
 
 
-def test_com_velocity_matches_momentum(g1_spec: RobotSpec) -> None:
-    """The CoM velocity from body velocities equals MuJoCo's subtree linear momentum / mass."""
+def test_com_velocity_and_angular_momentum_match_mujoco(g1_spec: RobotSpec) -> None:
+    """At a random velocity, the CoM, its velocity (from body velocities) and the robot's angular
+    momentum about its CoM equal MuJoCo's subtree CoM, linear momentum / mass and angular momentum."""
     model = g1_spec.load_model()
     data = mujoco.MjData(model)
     standing_state(g1_spec, model, data)
@@ -89,6 +90,62 @@ def test_com_velocity_matches_momentum(g1_spec: RobotSpec) -> None:
     com, vel = robot.com()
     np.testing.assert_allclose(com, data.subtree_com[robot.root_id], atol=1e-12)
     np.testing.assert_allclose(vel, data.subtree_linvel[robot.root_id], atol=1e-10)
+    np.testing.assert_allclose(robot.angular_momentum(), data.subtree_angmom[robot.root_id], atol=1e-10)
+
+
+def _lip_disturbance(g1_spec: RobotSpec, seconds: float, arm_swing_rad: float = 0.0, force_n: float = 0.0):
+    """G1 held standing by its servos; returns the disturbance (x) an LIP reads from the raw CoP
+    and from ``lip_zmp_m`` at each tick after 0.5 s, w = ẍ - (g / h)(x_c - x_z) [m/s^2], and the
+    pelvis CoM height [m]. Both arms swing in phase about the shoulder pitch with ``arm_swing_rad``
+    at 1.5 Hz; ``force_n`` pushes the pelvis along x."""
+    model = g1_spec.load_model()
+    data = mujoco.MjData(model)
+    standing_state(g1_spec, model, data)
+    robot = MujocoRobot(g1_spec, model, data)
+    joint_qpos = model.jnt_qposadr[model.actuator_trnid[:, 0]]
+    hold = data.qpos[joint_qpos].copy()
+    arms = np.array(["shoulder_pitch" in model.actuator(i).name for i in range(model.nu)])
+    pelvis = model.body("pelvis").id
+    eta2 = 9.81 / g1_spec.com_height_m
+    steps = int(round(0.01 / model.opt.timestep))
+    rows = []
+    for k in range(int(seconds / 0.01)):
+        t = k * 0.01
+        data.ctrl[:] = hold + arms * arm_swing_rad * math.sin(2 * math.pi * 1.5 * t)
+        data.xfrc_applied[pelvis, 0] = force_n
+        measurement, _ = robot.measure()
+        rows.append(np.concatenate([measurement.com_pos_m[:2], measurement.com_vel_mps[:2],
+                                    measurement.zmp_m, measurement.lip_zmp_m]))
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+    rows = np.array(rows)
+    acc = np.gradient(rows[:, 2], 0.01)
+    keep = slice(50, None)
+    w_raw = acc - eta2 * (rows[:, 0] - rows[:, 4])
+    w_lip = acc - eta2 * (rows[:, 0] - rows[:, 6])
+    return w_raw[keep], w_lip[keep], float(data.xipos[pelvis][2])
+
+
+def test_lip_zmp_removes_the_robots_own_spin(g1_spec: RobotSpec) -> None:
+    """Swinging arms move the CoP, but no external force acts: the LIP reading of lip_zmp_m
+    stays near zero while the raw CoP reads a large oscillating disturbance."""
+    w_raw, w_lip, _ = _lip_disturbance(g1_spec, 2.5, arm_swing_rad=0.6)
+    assert np.std(w_raw) > 0.1  # the spin the raw CoP shows [m/s^2]
+    assert np.std(w_lip) < 0.2 * np.std(w_raw)
+    assert abs(np.mean(w_lip)) < 0.02
+
+
+def test_lip_zmp_keeps_an_external_push(g1_spec: RobotSpec) -> None:
+    """At rest under a push F on the pelvis (height h_p), the LIP reading is the push's moment
+    about the floor over m z_c: F h_p / (m z_c). The correction removes spin only, not forces."""
+    force = 15.0
+    _, w_lip, pelvis_height = _lip_disturbance(g1_spec, 2.0, force_n=force)
+    model = g1_spec.load_model()
+    data = mujoco.MjData(model)
+    standing_state(g1_spec, model, data)
+    com_height = MujocoRobot(g1_spec, model, data).com()[0][2]
+    expected = force * pelvis_height / (g1_spec.mass_kg * com_height)
+    assert np.mean(w_lip[-50:]) == pytest.approx(expected, rel=0.05)
 
 
 def test_no_contact_gives_no_zmp(op3_spec: RobotSpec) -> None:

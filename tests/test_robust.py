@@ -253,3 +253,26 @@ def test_measured_dcm_error_reaches_the_timing_module_only_with_a_band():
     assert adaptations == 0 and new == old
     adaptations, new, old = results[(0.005, 0.01)]
     assert adaptations == 1 and new < old - 0.05
+
+
+def test_observer_reads_the_lip_zmp_when_the_measurement_has_one():
+    """A measurement's lip_zmp_m (the CoP without the robot's spin) replaces its raw CoP in the
+    observer: a run whose raw CoP is offset by 3 cm but whose lip_zmp_m is the model's ZMP
+    estimates exactly what a run measuring the model's ZMP as its CoP estimates."""
+    estimates = {}
+    for case in ("cop", "lip"):
+        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("observer",))
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 6.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        for k in range(150):
+            x_c, v_c, x_z = controller.state
+            kick = np.array([2e-4, -1e-4]) * (k % 7 == 0)  # a measured CoM that differs from the model's
+            com, vel = np.append(x_c + kick, ROBOT.com_height_m), np.append(v_c, 0.0)
+            if case == "cop":
+                measurement = Measurement(com, vel, zmp_m=x_z.copy())
+            else:
+                measurement = Measurement(com, vel, zmp_m=x_z + 0.03, lip_zmp_m=x_z.copy())
+            controller.step(k * 0.01, measurement)
+        estimates[case] = controller.disturbance_estimate_mps2.copy()
+    assert np.any(np.abs(estimates["cop"]) > 1e-3)  # the kicks do move the estimate
+    np.testing.assert_allclose(estimates["lip"], estimates["cop"], atol=1e-12)

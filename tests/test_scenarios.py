@@ -18,6 +18,7 @@ from robust_ismpc.scenarios import (  # noqa: E402
     ScaledForce,
     Scenario,
     Variation,
+    expected_outcome,
     get_scenario,
     pendulum_swing_time,
     realise,
@@ -163,6 +164,26 @@ def test_paper_ball_robust_survives_nominal_falls(tmp_path) -> None:
     np.testing.assert_array_less(comparison["robust"]["time_to_step_after_hit_s"], 0.25)
 
 
+@pytest.fixture(scope="module")
+def paper_bag_8s():
+    """paper-bag on OP3, seed 0, shortened to 8 s: both runs and their comparison."""
+    return run_scenario("paper-bag", seed=0, duration_s=8.0).comparison
+
+
+def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
+    """paper-bag on OP3 (seed 0, 8 s), the paper's Fig. 2: the nominal robot falls under the
+    swinging bag; the robust one walks on along the planned path (stride-averaged deviation below
+    3 cm), its observer reading the bag on the right elbow as a push to the right."""
+    comparison = paper_bag_8s
+    assert comparison["nominal"]["fell"]
+    assert not comparison["robust"]["fell"]
+    assert comparison["robust"]["scene"]["payloads"][0]["max_swing_rad"] > 0.1  # the bag does swing
+    assert comparison["robust"]["disturbance_estimate_mean_mps2"][1] < -0.3  # towards the bag (-y)
+    assert comparison["robust"]["path_deviation"]["max_m"] < 0.03
+    assert comparison["robust_survives_nominal_fails"] and comparison["robust_keeps_path"]
+    assert comparison["expected_outcome"]
+
+
 def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:
     """Figure markers: the planned hit for paper-ball; the constant force then the push for paper-push."""
     from robust_ismpc.scenarios import disturbance_events
@@ -173,3 +194,29 @@ def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:
     labels, times = zip(*disturbance_events(push))
     assert labels == ("constant force 38 N", "push 71 N")
     assert times == (3.0, 6.0)
+
+
+def _outcome(expect: str, nominal: tuple[bool, float], robust: tuple[bool, float]) -> bool:
+    """expected_outcome of a scenario expecting ``expect`` for (fell, path deviation [m]) pairs."""
+    scenario = get_scenario("paper-bag" if expect == "deviates" else "paper-push")
+    assert scenario.expect == expect
+    runs = {label: {"fell": fell, "path_deviation": {"max_m": dev}}
+            for label, (fell, dev) in (("nominal", nominal), ("robust", robust))}
+    return expected_outcome(scenario, runs)
+
+
+@pytest.mark.parametrize("expect, nominal, robust, outcome", [
+    ("falls", (True, 0.01), (False, 0.01), True),
+    ("falls", (False, 0.20), (False, 0.01), False),  # a deviating nominal run is not a fall
+    ("falls", (True, 0.01), (True, 0.01), False),
+    ("deviates", (True, 0.01), (False, 0.01), True),
+    ("deviates", (False, 0.08), (False, 0.02), True),
+    ("deviates", (False, 0.05), (False, 0.029), False),  # nominal not 2x the robust deviation
+    ("deviates", (True, 0.01), (False, 0.31), False),  # robust survives but leaves the path
+    ("deviates", (False, 0.02), (False, 0.01), False),  # nominal keeps the path too
+], ids=["falls", "falls-nominal-deviates", "falls-both-fall", "deviates-nominal-falls",
+        "deviates", "deviates-ratio", "deviates-robust-off-path", "deviates-both-on-path"])
+def test_expected_outcome_criteria(expect, nominal, robust, outcome) -> None:
+    """The paper's outcome: robust survives (and, for the bag, keeps the path within 3 cm) while
+    nominal falls (or, for the bag, deviates by >= 3 cm and >= 2x the robust deviation)."""
+    assert _outcome(expect, nominal, robust) is outcome

@@ -64,6 +64,26 @@ def test_static_torques_balance_floating_base(g1_spec: RobotSpec) -> None:
     assert abs(torque[knees[0]]) > 5.0  # the knees carry the bent-knee weight
 
 
+@pytest.mark.parametrize("feet", [(True, True), (True, False)], ids=["double", "left-single"])
+def test_force_on_com_moves_the_contact_cop_by_its_moment(g1_spec: RobotSpec, feet) -> None:
+    """With a force F on the CoM the feet carry the rest: their CoP moves by F z_c / (m g).
+
+    A horizontal force at the CoM height z_c tips the robot about the floor with the moment
+    F z_c; the soles balance it only if their centre of pressure moves along F by
+    F z_c / (m g). A wrong sign of the generalised force would move it the other way.
+    """
+    ik = WholeBodyIk(g1_spec)
+    mass = float(ik.model.body_subtreemass[1])
+    com_height = float(ik.com_m()[2])
+    ik.static_torques(0.5, *feet)
+    cop_free = ik.last_contact_cop_m.copy()
+    force = np.array([20.0, -8.0, 0.0])
+    torque = ik.static_torques(0.5, *feet, com_force_n=force)
+    cop_pushed = ik.last_contact_cop_m
+    np.testing.assert_allclose(cop_pushed - cop_free, force[:2] * com_height / (mass * 9.81), atol=1e-6)
+    assert np.all(torque[:6] == 0.0)
+
+
 def test_actuator_map_covers_all_actuators(robot_spec: RobotSpec) -> None:
     """Every actuator maps to its joint in the IK model; the built-ins use position servos."""
     ik = WholeBodyIk(robot_spec)

@@ -85,6 +85,11 @@ class LoopSettings:
         the static torques, and add the servo damping times the reference joint velocity, so
         that a position servo's ``-kd q̇`` does not brake the planned motion
         (:meth:`~robust_ismpc.wbik.WholeBodyIk.inverse_dynamics_torques`).
+    disturbance_feedforward : bool
+        With ``gravity_feedforward``: the torques also hold the disturbance the plan was made for,
+        the force ``m ŵ`` acting on the CoM (``GaitReference.disturbance_mps2``; zero for the
+        nominal controller). Without it the servos carry that force alone: the robot's CoM
+        does not take the lean the robust plan asks for (docs/scenarios.md).
     """
 
     control_period_s: float = 0.01
@@ -97,6 +102,7 @@ class LoopSettings:
     gravity_feedforward: bool = True
     foot_friction: float | None = None
     dynamic_feedforward: bool = False
+    disturbance_feedforward: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.control_period_s, (int, float)) or not self.control_period_s > 0:
@@ -323,10 +329,13 @@ class MujocoSimulation:
             else:
                 share = 1.0 if left.in_contact else 0.0
             left_contact = left.in_contact or not right.in_contact
+            force = None
+            if self.settings.disturbance_feedforward:
+                force = self.robot.mass_kg * np.array([*reference.disturbance_mps2, 0.0])
             if self.settings.dynamic_feedforward:
-                torques = self.ik.inverse_dynamics_torques(qvel, qacc, share, left_contact, right.in_contact)
+                torques = self.ik.inverse_dynamics_torques(qvel, qacc, share, left_contact, right.in_contact, force)
             else:
-                torques = self.ik.static_torques(share, left_contact, right.in_contact)
+                torques = self.ik.static_torques(share, left_contact, right.in_contact, force)
             self._feedforward = torques[self.actuators.ik_dof_index]
         self._apply_targets()
 

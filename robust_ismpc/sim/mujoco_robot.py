@@ -249,6 +249,7 @@ class MujocoRobot:
         self._is_ground[self._ground_geoms] = True
         self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
+        self._last_momentum: tuple[float, np.ndarray, np.ndarray] | None = None
 
     def foot_geom_ids(self) -> np.ndarray:
         """Ids of the geoms of both feet that can touch the floor (contype or conaffinity set)."""
@@ -277,6 +278,27 @@ class MujocoRobot:
         vel_points = cvel[:, 3:] + np.cross(cvel[:, :3], xipos - ref)
         vel = mass @ vel_points / self.mass_kg
         return com, vel
+
+    def angular_momentum(self) -> np.ndarray:
+        """Angular momentum of the robot about its CoM (disturbance bodies excluded) [kg m^2/s], shape (3,).
+
+        The sum over the robot's bodies of ``m_i (r_i - c) x (v_i - v_c) + I_i w_i``, with
+        ``r_i`` and ``v_i`` the body's centre of mass and its velocity, ``I_i`` its inertia in the
+        world frame and ``w_i`` its angular velocity (from ``cvel``).
+        """
+        d, m = self.data, self.model
+        ids = self.robot_body_ids
+        mass = self._body_mass
+        com, vel = self.com()
+        xipos = d.xipos[ids]
+        cvel = d.cvel[ids]
+        omega = cvel[:, :3]
+        vel_points = cvel[:, 3:] + np.cross(omega, xipos - d.subtree_com[m.body_rootid[ids]])
+        orbital = mass[:, None] * np.cross(xipos - com, vel_points - vel)
+        rot = d.ximat[ids].reshape(-1, 3, 3)
+        local = np.einsum("nji,nj->ni", rot, omega) * m.body_inertia[ids]
+        spin = np.einsum("nij,nj->ni", rot, local)
+        return (orbital + spin).sum(axis=0)
 
     def sole_pose(self, side: str) -> SolePose:
         """Sole pose of ``side`` (``"left"`` or ``"right"``) in the world."""
@@ -378,7 +400,30 @@ class MujocoRobot:
         com, vel = self.com()
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
-        return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp), contacts
+        lip_zmp = None
+        rate = self._angular_momentum_rate()
+        normal_n = contacts.left_force_n + contacts.right_force_n
+        if zmp is not None and normal_n > 0.0:
+            without_spin = zmp + np.array([rate[1], -rate[0]]) / normal_n
+            # the LIP's eta^2 = g / h: scale the lever so that eta^2 (c - p) = (f_z / (m z_c)) (c - p_spin)
+            scale = normal_n * self.spec.com_height_m / (self.mass_kg * GRAVITY_MPS2 * max(com[2], 1e-3))
+            lip_zmp = com[:2] - scale * (com[:2] - without_spin)
+        return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, lip_zmp_m=lip_zmp), contacts
+
+    def _angular_momentum_rate(self) -> np.ndarray:
+        """L̇ about the CoM [N m], shape (3,): backward difference since the previous call at an earlier time.
+
+        Zero on the first call and after the time went back (a reset); a second call at the same
+        time returns the same rate.
+        """
+        t_s = float(self.data.time)
+        momentum = self.angular_momentum()
+        last = self._last_momentum
+        if last is None or t_s < last[0]:
+            self._last_momentum = (t_s, momentum, np.zeros(3))
+        elif t_s > last[0]:
+            self._last_momentum = (t_s, momentum, (momentum - last[1]) / (t_s - last[0]))
+        return self._last_momentum[2]
 
 
 @dataclass(frozen=True)
