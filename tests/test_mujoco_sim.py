@@ -324,6 +324,8 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
     ({"measured_dcm_band_m": (0.01,)}, "measured_dcm_band_m"),
     ({"measured_dcm_band_m": (0.01, -0.01)}, "measured_dcm_band_m"),
     ({"state_feedback_gain": 1.5}, "state_feedback_gain"),
+    ({"path_feedback_gain": -0.1}, "path_feedback_gain"),
+    ({"path_feedback_gain": float("nan")}, "path_feedback_gain"),
 ])
 def test_bad_walk_settings_raise_parameter_error(kwargs, message):
     from robust_ismpc.exceptions import ParameterError
