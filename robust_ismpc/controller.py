@@ -23,7 +23,7 @@ from .exceptions import ControllerFailure, InfeasibleMpc, ParameterError, Solver
 from .footsteps import LEFT, FootstepPlan
 from .lip import discretise
 from .mpc import IsmpcQp, MpcPlan, MpcState
-from .params import MpcParams, RobotParams
+from .params import MpcParams, RobotParams, check_positive
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
@@ -137,14 +137,12 @@ class IsmpcController:
     ):
         if velocity_feedback_gain is None:
             velocity_feedback_gain = state_feedback_gain
-        for name, gain in (("state_feedback_gain", state_feedback_gain), ("velocity_feedback_gain", velocity_feedback_gain)):
+        gains = (("state_feedback_gain", state_feedback_gain), ("velocity_feedback_gain", velocity_feedback_gain),
+                 ("path_feedback_gain", path_feedback_gain))
+        for name, gain in gains:
             if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
                 raise ParameterError(f"{name} must be in [0, 1], got {gain!r}")
-        if not (isinstance(path_feedback_gain, (int, float)) and 0.0 <= path_feedback_gain <= 1.0):
-            raise ParameterError(f"path_feedback_gain must be in [0, 1], got {path_feedback_gain!r}")
-        if not (isinstance(path_feedback_max_m, (int, float)) and math.isfinite(path_feedback_max_m)
-                and path_feedback_max_m > 0):
-            raise ParameterError(f"path_feedback_max_m must be a finite number > 0, got {path_feedback_max_m!r}")
+        check_positive("IsmpcController", path_feedback_max_m=path_feedback_max_m)
         if path_feedback_gain > 0 and anchor_landed_footsteps:
             raise ParameterError(
                 "path_feedback_gain needs anchor_landed_footsteps=False: with anchoring the plan "

@@ -15,15 +15,21 @@ from .exceptions import ParameterError
 GRAVITY_MPS2 = 9.81
 
 
-def _check_positive(owner: str, **values: float) -> None:
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check_positive(owner: str, **values: float) -> None:
+    """Raise ParameterError naming ``owner.name`` unless every value is a finite number > 0."""
     for name, value in values.items():
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        if not _is_number(value) or value <= 0:
             raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
 
 
-def _check_nonnegative(owner: str, **values: float) -> None:
+def check_nonnegative(owner: str, **values: float) -> None:
+    """Raise ParameterError naming ``owner.name`` unless every value is a finite number >= 0."""
     for name, value in values.items():
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        if not _is_number(value) or value < 0:
             raise ParameterError(f"{owner}.{name} must be a finite number >= 0, got {value!r}")
 
 
@@ -75,7 +81,7 @@ class RobotParams:
         owner = f"RobotParams[{self.name}]"
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"RobotParams.name must be a non-empty string, got {self.name!r}")
-        _check_positive(
+        check_positive(
             owner,
             mass_kg=self.mass_kg,
             com_height_m=self.com_height_m,
@@ -90,7 +96,7 @@ class RobotParams:
             sole_length_m=self.sole_length_m,
             sole_width_m=self.sole_width_m,
         )
-        _check_nonnegative(owner, swing_height_m=self.swing_height_m)
+        check_nonnegative(owner, swing_height_m=self.swing_height_m)
         if self.zmp_box_x_m > self.sole_length_m + 1e-12 or self.zmp_box_y_m > self.sole_width_m + 1e-12:
             raise ParameterError(
                 f"{owner}: ZMP box {self.zmp_box_x_m} x {self.zmp_box_y_m} m must fit inside the "
@@ -153,14 +159,14 @@ class MpcParams:
     solver: str = "daqp"
 
     def __post_init__(self) -> None:
-        _check_positive(
+        check_positive(
             "MpcParams",
             sampling_period_s=self.sampling_period_s,
             control_horizon_s=self.control_horizon_s,
             preview_horizon_s=self.preview_horizon_s,
             footstep_weight=self.footstep_weight,
         )
-        _check_nonnegative("MpcParams", footstep_freeze_s=self.footstep_freeze_s)
+        check_nonnegative("MpcParams", footstep_freeze_s=self.footstep_freeze_s)
         if self.tail not in ("anticipative", "periodic", "truncated"):
             raise ParameterError(
                 f"MpcParams.tail must be one of anticipative, periodic, truncated; got {self.tail!r}"

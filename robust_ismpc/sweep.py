@@ -50,6 +50,7 @@ import numpy as np
 from .exceptions import ParameterError
 from .forces import ForceWindow
 from .io import atomic_write_bytes, atomic_write_json
+from .params import check_positive
 
 LOGGER = logging.getLogger("robust_ismpc")
 
@@ -196,11 +197,6 @@ def parse_phases(text: str) -> tuple[float, ...]:
 # ---------------------------------------------------------------------------------------------
 # Configuration, tasks and trials
 # ---------------------------------------------------------------------------------------------
-def _finite_positive(owner: str, name: str, value) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
-
-
 @dataclass(frozen=True)
 class SweepConfig:
     """What a sweep measures (everything that changes its results; not how it is executed).
@@ -265,11 +261,10 @@ class SweepConfig:
         if not self.phases:
             raise ParameterError(f"{owner}.phases must hold at least one phase")
         parse_phases(",".join(repr(float(p)) for p in self.phases))
-        _finite_positive(owner, "impulse_max_ns", self.impulse_max_ns)
+        check_positive(owner, impulse_max_ns=self.impulse_max_ns)
         if self.force_max_n is not None:
-            _finite_positive(owner, "force_max_n", self.force_max_n)
-        _finite_positive(owner, "push_duration_s", self.push_duration_s)
-        _finite_positive(owner, "post_push_s", self.post_push_s)
+            check_positive(owner, force_max_n=self.force_max_n)
+        check_positive(owner, push_duration_s=self.push_duration_s, post_push_s=self.post_push_s)
         if isinstance(self.vx_mps, bool) or not isinstance(self.vx_mps, (int, float)) or not math.isfinite(self.vx_mps):
             raise ParameterError(f"{owner}.vx_mps must be a finite number, got {self.vx_mps!r}")
         if isinstance(self.iterations, bool) or not isinstance(self.iterations, int) or not 1 <= self.iterations <= 30:
@@ -481,7 +476,7 @@ class Bisection:
     """
 
     def __init__(self, max_magnitude: float, iterations: int):
-        _finite_positive("Bisection", "max_magnitude", max_magnitude)
+        check_positive("Bisection", max_magnitude=max_magnitude)
         if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
             raise ParameterError(f"Bisection.iterations must be an integer >= 1, got {iterations!r}")
         self.max_magnitude = float(max_magnitude)

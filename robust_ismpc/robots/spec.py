@@ -23,7 +23,7 @@ import numpy as np
 import tomllib
 
 from ..exceptions import ModelError, ParameterError
-from ..params import ROBOT_DEFAULTS, RobotParams
+from ..params import ROBOT_DEFAULTS, RobotParams, check_positive
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -34,11 +34,6 @@ BUILTIN_ROBOTS: tuple[str, ...] = ("g1", "op3")
 MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_length_m", "sole_width_m")
 
 _FRAME_TYPES = ("site", "body")
-
-
-def _check_finite_positive(owner: str, name: str, value: Any) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) or value <= 0:
-        raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
 
 
 def _as_vec3(owner: str, name: str, value: Any) -> tuple[float, float, float]:
@@ -141,7 +136,7 @@ class RobotSpec:
             self, "right_sole_offset_m", _as_vec3(owner, "right_sole_offset_m", self.right_sole_offset_m)
         )
         for attr in ("sole_length_m", "sole_width_m", "mass_kg", "com_height_m", "foot_spacing_m", "base_height_m"):
-            _check_finite_positive(owner, attr, getattr(self, attr))
+            check_positive(owner, **{attr: getattr(self, attr)})
         if not self.leg_joints or not all(isinstance(j, str) and j for j in self.leg_joints):
             raise ParameterError(f"{owner}.leg_joints must be a non-empty sequence of joint names")
         for joint, value in self.standing_posture:
