@@ -258,6 +258,16 @@ class MujocoRobot:
         return geoms[(m.geom_contype[geoms] != 0) | (m.geom_conaffinity[geoms] != 0)]
 
     # ------------------------------------------------------------------ kinematics
+    def _body_motion(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per robot body: centre of mass ``xipos``, its linear velocity and the angular velocity
+        (world frame), each shape (n, 3), from the bodies' spatial velocities ``cvel``."""
+        d, m = self.data, self.model
+        ids = self.robot_body_ids
+        xipos = d.xipos[ids]
+        cvel = d.cvel[ids]
+        omega = cvel[:, :3]
+        return xipos, cvel[:, 3:] + np.cross(omega, xipos - d.subtree_com[m.body_rootid[ids]]), omega
+
     def com(self) -> tuple[np.ndarray, np.ndarray]:
         """Whole-body CoM of the robot (disturbance bodies excluded).
 
@@ -268,16 +278,12 @@ class MujocoRobot:
         com_vel_mps : ndarray, shape (3,)
             CoM velocity [m/s], from the bodies' spatial velocities ``cvel``.
         """
-        d, m = self.data, self.model
-        ids = self.robot_body_ids
+        xipos, vel_points, _ = self._body_motion()
+        return self._com_of(xipos, vel_points)
+
+    def _com_of(self, xipos: np.ndarray, vel_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         mass = self._body_mass
-        xipos = d.xipos[ids]
-        com = mass @ xipos / self.mass_kg
-        cvel = d.cvel[ids]
-        ref = d.subtree_com[m.body_rootid[ids]]
-        vel_points = cvel[:, 3:] + np.cross(cvel[:, :3], xipos - ref)
-        vel = mass @ vel_points / self.mass_kg
-        return com, vel
+        return mass @ xipos / self.mass_kg, mass @ vel_points / self.mass_kg
 
     def angular_momentum(self) -> np.ndarray:
         """Angular momentum of the robot about its CoM (disturbance bodies excluded) [kg m^2/s], shape (3,).
@@ -286,17 +292,14 @@ class MujocoRobot:
         ``r_i`` and ``v_i`` the body's centre of mass and its velocity, ``I_i`` its inertia in the
         world frame and ``w_i`` its angular velocity (from ``cvel``).
         """
-        d, m = self.data, self.model
+        motion = self._body_motion()
+        return self._angular_momentum_of(*motion, *self._com_of(*motion[:2]))
+
+    def _angular_momentum_of(self, xipos, vel_points, omega, com, vel) -> np.ndarray:
         ids = self.robot_body_ids
-        mass = self._body_mass
-        com, vel = self.com()
-        xipos = d.xipos[ids]
-        cvel = d.cvel[ids]
-        omega = cvel[:, :3]
-        vel_points = cvel[:, 3:] + np.cross(omega, xipos - d.subtree_com[m.body_rootid[ids]])
-        orbital = mass[:, None] * np.cross(xipos - com, vel_points - vel)
-        rot = d.ximat[ids].reshape(-1, 3, 3)
-        local = np.einsum("nji,nj->ni", rot, omega) * m.body_inertia[ids]
+        orbital = self._body_mass[:, None] * np.cross(xipos - com, vel_points - vel)
+        rot = self.data.ximat[ids].reshape(-1, 3, 3)
+        local = np.einsum("nji,nj->ni", rot, omega) * self.model.body_inertia[ids]
         spin = np.einsum("nij,nj->ni", rot, local)
         return (orbital + spin).sum(axis=0)
 
@@ -397,11 +400,12 @@ class MujocoRobot:
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
-        com, vel = self.com()
+        motion = self._body_motion()
+        com, vel = self._com_of(*motion[:2])
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
         lip_zmp = None
-        rate = self._angular_momentum_rate()
+        rate = self._angular_momentum_rate(self._angular_momentum_of(*motion, com, vel))
         normal_n = contacts.left_force_n + contacts.right_force_n
         if zmp is not None and normal_n > 0.0:
             without_spin = zmp + np.array([rate[1], -rate[0]]) / normal_n
@@ -410,14 +414,14 @@ class MujocoRobot:
             lip_zmp = com[:2] - scale * (com[:2] - without_spin)
         return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, lip_zmp_m=lip_zmp), contacts
 
-    def _angular_momentum_rate(self) -> np.ndarray:
-        """L̇ about the CoM [N m], shape (3,): backward difference since the previous call at an earlier time.
+    def _angular_momentum_rate(self, momentum: np.ndarray) -> np.ndarray:
+        """L̇ about the CoM [N m], shape (3,), given the current ``momentum``: backward difference
+        since the previous call at an earlier time.
 
         Zero on the first call and after the time went back (a reset); a second call at the same
         time returns the same rate.
         """
         t_s = float(self.data.time)
-        momentum = self.angular_momentum()
         last = self._last_momentum
         if last is None or t_s < last[0]:
             self._last_momentum = (t_s, momentum, np.zeros(3))
