@@ -27,6 +27,12 @@ def _save(fig, path: Path) -> None:
     atomic_write_bytes(Path(path), buffer.getvalue())
 
 
+def _sole_outline(pos: np.ndarray, yaw: float, corners: np.ndarray) -> np.ndarray:
+    """``corners`` (sole frame, shape (4, 2)) rotated by ``yaw`` and moved to ``pos`` [m]."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return pos + corners @ np.array([[c, s], [-s, c]])
+
+
 def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | None) -> None:
     from matplotlib.patches import Polygon
 
@@ -41,9 +47,7 @@ def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | N
     for pos, yaw, side, ok in zip(steps, trace.footstep_yaw_rad, trace.footstep_side, done):
         if not ok:
             continue
-        c, s = np.cos(yaw), np.sin(yaw)
-        pts = pos + corners @ np.array([[c, s], [-s, c]])
-        ax.add_patch(Polygon(pts, closed=True, fill=False, ec=color if side > 0 else "tab:gray", lw=1.0,
+        ax.add_patch(Polygon(_sole_outline(pos, yaw, corners), closed=True, fill=False, ec=color if side > 0 else "tab:gray", lw=1.0,
                              label=label if first else None))
         first = False
     cand = trace.candidate_footsteps_m[1:][done[1:]]
@@ -68,8 +72,7 @@ def _measured_footprints(ax, trace: Trace, done: np.ndarray, corners: np.ndarray
         pos, yaw = soles[k, 2 * column : 2 * column + 2], yaws[k, column]
         if not np.all(np.isfinite(pos)):
             continue
-        c, s = np.cos(yaw), np.sin(yaw)
-        ax.add_patch(Polygon(pos + corners @ np.array([[c, s], [-s, c]]), closed=True, lw=0,
+        ax.add_patch(Polygon(_sole_outline(pos, yaw, corners), closed=True, lw=0,
                              fc=color if column == 0 else "tab:gray", alpha=0.25,
                              label="real footsteps (measured)" if first else None))
         first = False

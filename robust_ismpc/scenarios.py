@@ -673,9 +673,15 @@ def comparison_metrics(run: ScenarioRun, results: dict[str, RunResult]) -> dict:
         out[label] = entry
     out["expected_outcome"] = expected_outcome(scenario, out)
     out["robust_survives_nominal_fails"] = bool(not out["robust"]["fell"] and out["nominal"]["fell"])
-    robust_path = out["robust"]["path_deviation"]["max_m"]
-    out["robust_keeps_path"] = bool(not out["robust"]["fell"] and robust_path is not None and robust_path < DEVIATION_MIN_M)
+    robust = out["robust"]
+    out["robust_keeps_path"] = (not robust["fell"] and robust["path_deviation"]["max_m"] is not None
+                                and _keeps_path(robust))
     return out
+
+
+def _keeps_path(run: dict) -> bool:
+    """Whether a run's stride-averaged path deviation stays below :data:`DEVIATION_MIN_M`."""
+    return (run["path_deviation"]["max_m"] or 0.0) < DEVIATION_MIN_M
 
 
 def expected_outcome(scenario: Scenario, comparison: dict) -> bool:
@@ -690,15 +696,14 @@ def expected_outcome(scenario: Scenario, comparison: dict) -> bool:
     nominal, robust = comparison["nominal"], comparison["robust"]
     if robust["fell"]:
         return False
-    dr = robust["path_deviation"]["max_m"] or 0.0
-    if scenario.expect == "deviates" and dr >= DEVIATION_MIN_M:
+    if scenario.expect == "deviates" and not _keeps_path(robust):
         return False
     if nominal["fell"]:
         return True
     if scenario.expect == "falls":
         return False
     dn = nominal["path_deviation"]["max_m"] or 0.0
-    return dn >= DEVIATION_MIN_M and dn >= DEVIATION_RATIO * dr
+    return not _keeps_path(nominal) and dn >= DEVIATION_RATIO * (robust["path_deviation"]["max_m"] or 0.0)
 
 
 @dataclass(frozen=True)
