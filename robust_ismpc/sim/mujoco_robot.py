@@ -389,7 +389,7 @@ class MujocoRobot:
         return convex_hull(np.vstack(corners))
 
     # ------------------------------------------------------------------ measurement
-    def measure(self, forward: bool = True) -> tuple[Measurement, ContactState]:
+    def measure(self, forward: bool = True, spin_corrected: bool = True) -> tuple[Measurement, ContactState]:
         """The controller's measurement and the contact state.
 
         Parameters
@@ -397,6 +397,10 @@ class MujocoRobot:
         forward : bool
             Run ``mj_forward`` first so that positions, velocities and contact forces all refer
             to the current state (cheap; leave True unless the caller just did it).
+        spin_corrected : bool
+            Also give ``lip_zmp_m``, the CoP corrected for the robot's angular-momentum rate
+            (False: None, and the angular momentum is not computed). Its rate is a difference
+            between successive calls, so keep the choice fixed over a run.
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
@@ -405,9 +409,9 @@ class MujocoRobot:
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
         lip_zmp = None
-        rate = self._angular_momentum_rate(self._angular_momentum_of(*motion, com, vel))
+        rate = self._angular_momentum_rate(self._angular_momentum_of(*motion, com, vel)) if spin_corrected else None
         normal_n = contacts.left_force_n + contacts.right_force_n
-        if zmp is not None and normal_n > 0.0:
+        if rate is not None and zmp is not None and normal_n > 0.0:
             without_spin = zmp + np.array([rate[1], -rate[0]]) / normal_n
             # the LIP's eta^2 = g / h: scale the lever so that eta^2 (c - p) = (f_z / (m z_c)) (c - p_spin)
             scale = normal_n * self.spec.com_height_m / (self.mass_kg * GRAVITY_MPS2 * max(com[2], 1e-3))
