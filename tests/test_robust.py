@@ -15,6 +15,7 @@ from robust_ismpc.planner import WalkCommand, plan_footsteps
 from robust_ismpc.reference import Measurement
 from robust_ismpc.restriction import max_tolerable_deviation
 from robust_ismpc.robust import MODULES, RobustIsmpcController
+from robust_ismpc.runner import RunSpec, run
 
 ROBOT = robot_params("g1")
 
@@ -63,6 +64,29 @@ def test_persistent_lateral_force_fails_nominal_observer_walks_and_leans():
     lean = np.mean(trace["com_m"][-700:, 1] - trace["zmp_m"][-700:, 1])  # last five steps
     expected = -(force / ROBOT.mass_kg) / ROBOT.eta**2
     assert lean == pytest.approx(expected, rel=0.2)
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_lateral_force_starting_mid_walk_on_op3_robust_walks_nominal_fails(side):
+    """OP3 (3 cm ZMP box): a lateral force of 79 % of m g d_y / (2h), starting while the robot walks,
+    turns nominal IS-MPC infeasible and the robust one walks on; at 95 % neither can lean far
+    enough (docs/robots.md, OP3's lateral push limit)."""
+    op3 = robot_params("op3")
+    static_limit_n = op3.mass_kg * 9.81 * op3.zmp_box_y_m / (2 * op3.com_height_m)
+
+    def walk(modules, force_n):
+        spec = RunSpec(robot="op3", sim="lip", modules=modules, command=WalkCommand(0.15), duration_s=6.0,
+                       forces=(ForceWindow(0.0, side * force_n, 2.0, 5.0),))
+        return run(spec)
+
+    within = 0.79 * static_limit_n
+    nominal, robust = walk((), within).summary, walk(MODULES, within)
+    assert nominal["fell"] and nominal["qp_infeasible_count"] > 0
+    assert not robust.summary["fell"] and robust.summary["qp_infeasible_count"] == 0
+    t, w_y = robust.trace["t_s"], robust.trace["disturbance_est_mps2"][:, 1]
+    pushed = (t >= 4.0) & (t < 5.0)
+    assert np.all(w_y[pushed] * side > 0.5 * within / op3.mass_kg)  # the estimate follows the force
+    assert walk(MODULES, 0.95 * static_limit_n).summary["fell"]
 
 
 def _deviation_run(restrict, dmax, seed, duration_s, fix_footsteps, adversarial):
