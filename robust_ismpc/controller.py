@@ -27,6 +27,7 @@ from .params import MpcParams, RobotParams, check_positive
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
+from .swing_cop import swing_cop_offset
 
 LOGGER = logging.getLogger("robust_ismpc")
 
@@ -236,7 +237,14 @@ class IsmpcController:
 
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         """Solve this cycle's QP (subclasses may retry, e.g. after adapting the step timing)."""
-        return self.qp.solve(self.plan, state, self._restriction())
+        return self.qp.solve(self.plan, state, self._restriction(), self._swing_cop_offset(state.t_s))
+
+    def _swing_cop_offset(self, t_s: float) -> np.ndarray | None:
+        """Predicted shift of the robot's CoP by the swing leg over the horizon (None on a LIP)."""
+        if self.robot.swing_cop_gain_s2 == 0.0:
+            return None
+        times = t_s + self.qp.horizon_offsets_s
+        return swing_cop_offset(self.plan, t_s, times, self.feet, self.robot.swing_cop_gain_s2)
 
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""

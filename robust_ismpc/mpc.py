@@ -188,6 +188,7 @@ class IsmpcQp:
         plan: FootstepPlan,
         state: MpcState,
         restriction_m: np.ndarray | None = None,
+        zmp_offset_m: np.ndarray | None = None,
     ) -> tuple[list[QpProblem], QpLayout, HorizonFootsteps]:
         """Assemble the QP(s) of this cycle.
 
@@ -199,6 +200,10 @@ class IsmpcQp:
         state : MpcState
         restriction_m : ndarray, shape (C,), optional
             ZMP constraint restriction R_i for the row at t_{k+i+1} [m] (zeros if omitted).
+        zmp_offset_m : ndarray, shape (C, 2), optional
+            Predicted offset of the robot's centre of pressure from the model's ZMP at the row
+            t_{k+i+1} [m] (world frame); the box then constrains the ZMP plus this offset
+            (:mod:`robust_ismpc.swing_cop`). Zeros if omitted.
 
         Returns
         -------
@@ -232,6 +237,8 @@ class IsmpcQp:
 
         st = self._structure(F)
         offset = state.zmp_m[None, :] - centre_fixed  # (C, 2): p_z - centre (known part)
+        if zmp_offset_m is not None:
+            offset = offset + zmp_offset_m
         stab_rhs = state.dcm_m - self.stab.zmp_now * state.zmp_m - tail_fixed  # (2,)
         free_idx = np.arange(hf.first_free, hf.first_free + F)
         prev_known = np.zeros((F, 2))
@@ -309,8 +316,9 @@ class IsmpcQp:
         plan: FootstepPlan,
         state: MpcState,
         restriction_m: np.ndarray | None = None,
+        zmp_offset_m: np.ndarray | None = None,
     ) -> MpcPlan:
-        """Build and solve this cycle's QP.
+        """Build and solve this cycle's QP (arguments as :meth:`build`).
 
         Raises
         ------
@@ -318,7 +326,7 @@ class IsmpcQp:
             If the QP has no solution (the exception carries the problem).
         """
         start = time.perf_counter()
-        problems, layout, hf = self.build(plan, state, restriction_m)
+        problems, layout, hf = self.build(plan, state, restriction_m, zmp_offset_m)
         build_time = time.perf_counter() - start
         solve_time = 0.0
         zmp_vel = np.empty((self.C, 2))

@@ -60,6 +60,12 @@ class RobotParams:
         Apex height of the swing foot [m].
     sole_length_m, sole_width_m : float
         Physical sole rectangle (x and y sides) [m]; the ZMP box must fit inside it.
+    swing_cop_gain_s2 : float
+        κ [s²]: on a multibody robot the centre of pressure moves ``κ a`` from the LIP's ZMP while
+        the swing foot accelerates forward with ``a`` [m/s²] (the swing leg's angular momentum);
+        the MPC then keeps ``p + κ a`` in the ZMP box (:mod:`robust_ismpc.swing_cop`). 0
+        (default): the LIP, whose ZMP is the CoP. Measure it with
+        :func:`robust_ismpc.sim.calibrate.fit_swing_cop_gain`.
     """
 
     name: str
@@ -76,6 +82,7 @@ class RobotParams:
     swing_height_m: float
     sole_length_m: float
     sole_width_m: float
+    swing_cop_gain_s2: float = 0.0
 
     def __post_init__(self) -> None:
         owner = f"RobotParams[{self.name}]"
@@ -96,7 +103,7 @@ class RobotParams:
             sole_length_m=self.sole_length_m,
             sole_width_m=self.sole_width_m,
         )
-        check_nonnegative(owner, swing_height_m=self.swing_height_m)
+        check_nonnegative(owner, swing_height_m=self.swing_height_m, swing_cop_gain_s2=self.swing_cop_gain_s2)
         if self.zmp_box_x_m > self.sole_length_m + 1e-12 or self.zmp_box_y_m > self.sole_width_m + 1e-12:
             raise ParameterError(
                 f"{owner}: ZMP box {self.zmp_box_x_m} x {self.zmp_box_y_m} m must fit inside the "

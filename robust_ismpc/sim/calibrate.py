@@ -1,0 +1,123 @@
+"""Measure a robot's swing-leg CoP gain κ (:attr:`~robust_ismpc.params.RobotParams.swing_cop_gain_s2`).
+
+The robot walks its reference without physics: the nominal IS-MPC runs open loop, the whole-body
+IK follows the reference and the inverse dynamics of the IK motion gives, every tick, the centre
+of pressure the feet must carry (:attr:`~robust_ismpc.wbik.WholeBodyIk.last_contact_cop_m`).
+In single support its deviation from the LIP's ZMP along the walking direction is regressed on
+the swing foot's forward acceleration: the slope is κ.
+
+Usage::
+
+    from robust_ismpc.sim.calibrate import fit_swing_cop_gain
+    fit = fit_swing_cop_gain("robots/mybot.toml")
+    print(fit.gain_s2)        # put it in the robot's [gait] table as swing_cop_gain_s2
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..controller import IsmpcController
+from ..exceptions import ParameterError
+from ..footsteps import LEFT
+from ..params import MpcParams
+from ..planner import WalkCommand, plan_footsteps
+from ..reference import Support
+from ..robots.spec import RobotSpec, load_robot
+from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
+
+
+@dataclass(frozen=True)
+class SwingCopFit:
+    """Result of :func:`fit_swing_cop_gain`.
+
+    Attributes
+    ----------
+    gain_s2 : float
+        κ [s²]: forward CoP shift per m/s² of forward swing-foot acceleration.
+    offset_m : float
+        Constant part of the forward CoP deviation [m].
+    rms_before_m, rms_after_m : float
+        RMS of the forward CoP deviation from the ZMP, raw and with ``κ a + offset`` removed [m].
+    samples : int
+        Single-support ticks used.
+    """
+
+    gain_s2: float
+    offset_m: float
+    rms_before_m: float
+    rms_after_m: float
+    samples: int
+
+
+def fit_swing_cop_gain(
+    robot: str | RobotSpec,
+    command: WalkCommand | None = None,
+    duration_s: float = 8.0,
+    settle_s: float = 1.0,
+) -> SwingCopFit:
+    """Walk the reference of ``robot`` (no physics) and fit κ.
+
+    Parameters
+    ----------
+    robot : str, path or RobotSpec
+        Built-in name or TOML path (:func:`~robust_ismpc.robots.spec.load_robot`), or a spec.
+    command : WalkCommand, optional
+        Walking command (default: forward at the robot's usual speed, 0.2 m/s for G1; pass a
+        smaller one for a small robot).
+    duration_s : float
+        Walk length [s].
+    settle_s : float
+        Ticks before this time are not used [s] (the first steps start from rest).
+
+    Raises
+    ------
+    ParameterError
+        Too short a walk to contain single support after ``settle_s``, or a command that does not
+        move the feet forward (κ is then undetermined).
+    """
+    spec = robot if isinstance(robot, RobotSpec) else load_robot(robot)
+    command = command if command is not None else WalkCommand(0.2)
+    if not duration_s > settle_s >= 0.0:
+        raise ParameterError(f"need duration_s > settle_s >= 0, got {duration_s!r}, {settle_s!r}")
+    params = replace(spec.params(), swing_cop_gain_s2=0.0)  # plan as a LIP
+    mpc = MpcParams()
+    com0, left0, right0 = initial_state(spec)
+    yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
+    plan = plan_footsteps(params, command, duration_s + mpc.preview_horizon_s + 1.0,
+                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
+    controller = IsmpcController(params, mpc)
+    controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
+    sim = MujocoSimulation(spec, settings=LoopSettings(control_period_s=mpc.sampling_period_s,
+                                                       dynamic_feedforward=True))
+    deviation, acceleration = [], []
+    dt = mpc.sampling_period_s
+    for k in range(int(round(duration_s / dt))):
+        reference = controller.step(k * dt)
+        sim.command(reference)
+        cop = sim.ik.last_contact_cop_m
+        if reference.t_s < settle_s or reference.support == Support.DOUBLE or cop is None:
+            continue
+        swing = controller.feet[LEFT if reference.support == Support.RIGHT else -LEFT]
+        heading = np.array([np.cos(reference.torso_yaw_rad), np.sin(reference.torso_yaw_rad)])
+        deviation.append(float((cop[:2] - reference.zmp_m[:2]) @ heading))
+        acceleration.append(float(swing.acc_mps2[:2] @ heading))
+    dev, acc = np.asarray(deviation), np.asarray(acceleration)
+    if dev.size < 10 or np.ptp(acc) < 1e-6:
+        raise ParameterError(
+            f"{spec.name}: no forward swing motion to fit κ on ({dev.size} single-support ticks); "
+            "walk forward for longer"
+        )
+    design = np.column_stack([acc, np.ones_like(acc)])
+    (gain, offset), *_ = np.linalg.lstsq(design, dev, rcond=None)
+    residual = dev - design @ np.array([gain, offset])
+    return SwingCopFit(
+        gain_s2=float(gain), offset_m=float(offset),
+        rms_before_m=float(np.sqrt(np.mean(dev**2))), rms_after_m=float(np.sqrt(np.mean(residual**2))),
+        samples=int(dev.size),
+    )
+
+
+__all__ = ["SwingCopFit", "fit_swing_cop_gain"]
