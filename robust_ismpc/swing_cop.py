@@ -41,14 +41,51 @@ def quintic_acceleration(
     ndarray, shape (n, 2)
     """
     T = float(T_s)
-    d = p1 - p0 - v0 * T - 0.5 * a0 * T**2
-    dv = -v0 - a0 * T
-    c3 = (10 * d - 4 * dv * T - 0.5 * a0 * T**2) / T**3
-    c4 = (-15 * d + 7 * dv * T + a0 * T**2) / T**4
-    c5 = (6 * d - 3 * dv * T - 0.5 * a0 * T**2) / T**5
-    t = np.asarray(tau_s, dtype=float)[:, None]
-    acc = a0 + 6 * c3 * t + 12 * c4 * t**2 + 20 * c5 * t**3
-    return np.where(t < T, acc, 0.0)
+    u = np.asarray(tau_s, dtype=float) / T
+    u2, u3 = u * u, u * u * u
+    # The quintic's acceleration, written on the three boundary terms (u = τ / T).
+    by_displacement = (60.0 * u - 180.0 * u2 + 120.0 * u3) / T**2
+    by_velocity = (-36.0 * u + 96.0 * u2 - 60.0 * u3) / T
+    by_acceleration = 1.0 - 9.0 * u + 18.0 * u2 - 10.0 * u3
+    acc = (np.outer(by_displacement, np.asarray(p1, float) - p0) + np.outer(by_velocity, v0)
+           + np.outer(by_acceleration, a0))
+    acc[u >= 1.0] = 0.0
+    return acc
+
+
+def _swing_acceleration_and_step(
+    plan: FootstepPlan, t_s: float, times_s: np.ndarray, feet: dict[int, SwingState]
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`swing_acceleration` and the step index at each time."""
+    times = np.asarray(times_s, dtype=float)
+    acc = np.zeros((times.size, 2))
+    j = plan.step_at(times)
+    start = plan.ss_start_s[j]
+    duration = plan.T_ss_s[j]
+    u = (times - start) / duration
+    swinging = (u >= 0.0) & (u < 1.0) & (j >= 2)
+    if not swinging.any():
+        return acc, j
+    j_now = plan.step_at(t_s)
+    current = swinging & (j == j_now) & (t_s >= plan.ss_start_s[j_now])
+    if current.any():
+        foot = feet[int(plan.side[j_now])]
+        rem = float(plan.touchdown_s[j_now] - t_s)
+        if rem > 0.0:
+            acc[current] = quintic_acceleration(
+                foot.pos_m[:2], foot.vel_mps[:2], foot.acc_mps2[:2], plan.pos_m[j_now], rem, times[current] - t_s
+            )
+    later = swinging & ~current
+    if later.any():
+        jl = j[later]
+        lift = plan.pos_m[np.maximum(jl - 2, 1)]
+        first = jl - 2 < 1
+        if first.any():
+            lift[first] = np.array([feet[int(side)].pos_m[:2] for side in plan.side[jl[first]]])
+        ul, T = u[later], duration[later]
+        profile = (60.0 * ul - 180.0 * ul**2 + 120.0 * ul**3) / T**2  # rest to rest
+        acc[later] = (plan.pos_m[jl] - lift) * profile[:, None]
+    return acc, j
 
 
 def swing_acceleration(
@@ -74,33 +111,7 @@ def swing_acceleration(
         footstep at the planned touchdown; later swings are rest-to-rest quintics from the
         footstep two steps back (the foot's current position for its first swing).
     """
-    times = np.asarray(times_s, dtype=float)
-    acc = np.zeros((times.size, 2))
-    j = plan.step_at(times)
-    start = plan.ss_start_s[j]
-    duration = plan.T_ss_s[j]
-    u = (times - start) / duration
-    swinging = (u >= 0.0) & (u < 1.0) & (j >= 2)
-    j_now = plan.step_at(t_s)
-    current = swinging & (j == j_now) & (t_s >= start)
-    if np.any(current):
-        foot = feet[int(plan.side[j_now])]
-        rem = float(plan.touchdown_s[j_now] - t_s)
-        if rem > 0.0:
-            acc[current] = quintic_acceleration(
-                foot.pos_m[:2], foot.vel_mps[:2], foot.acc_mps2[:2], plan.pos_m[j_now], rem, times[current] - t_s
-            )
-    later = swinging & ~current
-    if np.any(later):
-        jl = j[later]
-        lift = np.where((jl - 2 >= 1)[:, None], plan.pos_m[np.maximum(jl - 2, 1)], np.nan)
-        first = jl - 2 < 1
-        if np.any(first):
-            lift[first] = np.array([feet[int(s)].pos_m[:2] for s in plan.side[jl[first]]])
-        ul, T = u[later], duration[later]
-        profile = (60.0 * ul - 180.0 * ul**2 + 120.0 * ul**3) / T**2
-        acc[later] = (plan.pos_m[jl] - lift) * profile[:, None]
-    return acc
+    return _swing_acceleration_and_step(plan, t_s, times_s, feet)[0]
 
 
 def swing_cop_offset(
@@ -108,16 +119,17 @@ def swing_cop_offset(
 ) -> np.ndarray:
     """Predicted CoP shift ``κ a_fwd h`` at ``times_s``, shape (n, 2) [m] (world frame).
 
-    ``a_fwd`` is the swing foot's acceleration along the heading ``h`` of the ZMP box at each
-    time (:func:`swing_acceleration`). Only the forward part is used: G1's lateral CoP shift
-    is smaller and less regular (walking sideways, κ_y = 0.0049 s² explains 0.92 → 0.70 cm rms
-    against 2.6 → 0.6 cm forward), and applying κ laterally too made its 30 s sideways walk fall
-    at 24-27 s (docs/robots.md).
+    ``a_fwd`` is the swing foot's acceleration (:func:`swing_acceleration`) along the heading ``h``
+    of the stance footstep, the frame of the single-support ZMP box (the shift is 0 in double
+    support). Only the forward part is used: G1's lateral CoP shift is smaller and less regular
+    (walking sideways, κ_y = 0.0049 s² explains 0.92 → 0.70 cm rms against 2.6 → 0.6 cm
+    forward), and applying κ laterally too made its 30 s sideways walk fall at 24-27 s
+    (docs/robots.md).
     """
-    acc = swing_acceleration(plan, t_s, times_s, feet)
-    yaw = plan.centre_yaw(np.asarray(times_s, dtype=float))
+    acc, j = _swing_acceleration_and_step(plan, t_s, times_s, feet)
+    yaw = plan.yaw_rad[np.maximum(j - 1, 0)]
     heading = np.column_stack([np.cos(yaw), np.sin(yaw)])
-    forward = np.sum(acc * heading, axis=1)
+    forward = np.einsum("ij,ij->i", acc, heading)
     return gain_s2 * forward[:, None] * heading
 
 
