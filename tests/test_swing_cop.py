@@ -147,3 +147,16 @@ def test_g1s_swing_cop_gain_is_a_robot_constant():
     assert fast.rms_after_m < 0.3 * fast.rms_before_m
     assert slow.gain_s2 == pytest.approx(fast.gain_s2, rel=0.1)
     assert load_robot("g1").params().swing_cop_gain_s2 == pytest.approx(fast.gain_s2, rel=0.1)
+
+
+def test_calibration_refuses_a_walk_without_forward_swings():
+    """Stepping in place gives no forward swing acceleration to fit κ on: a clear error, no κ."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("mink")
+    from robust_ismpc.planner import WalkCommand
+    from robust_ismpc.sim.calibrate import fit_swing_cop_gain
+
+    with pytest.raises(ParameterError, match="no forward swing motion"):
+        fit_swing_cop_gain("g1", WalkCommand(0.0), duration_s=4.0)
+    with pytest.raises(ParameterError, match="duration_s > settle_s"):
+        fit_swing_cop_gain("g1", duration_s=0.5, settle_s=1.0)
