@@ -146,6 +146,17 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
 
+    p_cal = sub.add_parser(
+        "calibrate", help="measure a robot's swing-leg CoP gain (the [gait] swing_cop_gain_s2)",
+        description="Walk the robot's reference without physics (whole-body IK and the inverse dynamics of its "
+        "motion) and fit κ, the forward shift of the centre of pressure per m/s² of forward swing-foot "
+        "acceleration (docs/robots.md). Writes OUT/calibration.json and OUT/calibration.png.")
+    p_cal.add_argument("--robot", default="g1", help="built-in robot (g1, op3) or a robot TOML file (g1)")
+    p_cal.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
+    p_cal.add_argument("--duration", type=_positive_float("duration"), default=8.0, help="walk length [s] (8)")
+    p_cal.add_argument("--out", required=True, help="output directory")
+    p_cal.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+
     p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
                              description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
     p_bench.add_argument("--robot", default="g1", help="robot parameters (g1)")
@@ -395,6 +406,25 @@ def cmd_soak(args) -> int:
     return 0 if not report["fell"] else 1
 
 
+def cmd_calibrate(args) -> int:
+    from .io import atomic_write_json
+    from .planner import WalkCommand
+    from .plotting import plot_swing_cop_fit
+    from .sim.calibrate import fit_swing_cop_gain
+
+    out = _prepare_out(args.out, args.overwrite)
+    fit = fit_swing_cop_gain(args.robot, WalkCommand(args.vx), duration_s=args.duration)
+    report = {"robot": args.robot, "vx_mps": args.vx, "duration_s": args.duration, **fit.summary()}
+    atomic_write_json(out / "calibration.json", report)
+    plot_swing_cop_fit(fit.swing_acceleration_mps2, fit.cop_deviation_m, fit.gain_s2, fit.offset_m,
+                       out / "calibration.png", title=f"{args.robot}: swing-leg CoP gain at {args.vx} m/s")
+    print(f"{args.robot}: κ = {fit.gain_s2:.4f} s² (forward CoP deviation {100 * fit.rms_before_m:.2f} cm rms, "
+          f"{100 * fit.rms_after_m:.2f} cm with κ a removed, {fit.samples} ticks); "
+          f"in the robot's [gait]: swing_cop_gain_s2 = {fit.gain_s2:.4f}")
+    print(f"wrote {out / 'calibration.json'}, {out / 'calibration.png'}")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import format_table, run_bench, write_bench
 
@@ -486,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep, "soak": cmd_soak,
-                "scenarios": cmd_scenarios}
+                "scenarios": cmd_scenarios, "calibrate": cmd_calibrate}
     try:
         return handlers[args.command](args)
     except IsmpcError as exc:

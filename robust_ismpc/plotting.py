@@ -170,3 +170,27 @@ def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | 
     _save(fig, Path(path))
     plt.close(fig)
     return Path(path)
+
+
+def plot_swing_cop_fit(acceleration_mps2: np.ndarray, deviation_m: np.ndarray, gain_s2: float, offset_m: float,
+                       path: str | Path, title: str = "") -> Path:
+    """Scatter of the forward CoP deviation against the swing foot's forward acceleration, with
+    the fitted line (:func:`robust_ismpc.sim.calibrate.fit_swing_cop_gain`)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    acc = np.asarray(acceleration_mps2, dtype=float)
+    dev = np.asarray(deviation_m, dtype=float)
+    ax.plot(acc, 100.0 * dev, ".", ms=3, alpha=0.5, label="single-support ticks")
+    line = np.linspace(acc.min(), acc.max(), 2) if acc.size else np.zeros(2)
+    ax.plot(line, 100.0 * (gain_s2 * line + offset_m), "-", color="black",
+            label=f"fit: κ = {gain_s2:.4f} s²")
+    ax.set_xlabel("swing foot forward acceleration [m/s²]")
+    ax.set_ylabel("CoP − ZMP, forward [cm]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)

@@ -89,6 +89,19 @@ def test_bench_writes_json(tmp_path):
     assert h["C"] == 20 and h["solve_ms"]["median"] > 0 and "quadprog" in h["solvers"]
 
 
+def test_calibrate_writes_the_fit_and_its_figure(tmp_path, capsys):
+    """`ismpc calibrate` fits κ on G1 (close to the value in g1.toml) and writes JSON and a plot."""
+    pytest.importorskip("mujoco")
+    from robust_ismpc.robots import load_robot
+
+    assert main(["calibrate", "--robot", "g1", "--duration", "5", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "calibration.json").read_text())
+    assert data["swing_cop_gain_s2"] == pytest.approx(load_robot("g1").params().swing_cop_gain_s2, rel=0.1)
+    assert data["residual_rms_m"] < 0.5 * data["cop_deviation_rms_m"]
+    assert (tmp_path / "calibration.png").stat().st_size > 10_000
+    assert "swing_cop_gain_s2 =" in capsys.readouterr().out
+
+
 BAD_OTHER_ARGS = [
     (["run", "--controller", "robust", "--delta-max", "5", "--duration", "1"], "the largest guaranteed delta_max"),
     (["run", "--sim", "mujoco", "--robot", "hrp4", "--duration", "1"], "robots available with --sim mujoco: g1, op3"),
@@ -103,6 +116,8 @@ BAD_OTHER_ARGS = [
     (["sweep", "--impulse-max", "-10"], "impulse_max_ns must be a finite number > 0"),
     (["bench", "--horizons", "0"], "--horizons must be >= 2 samples"),
     (["bench", "--cycles", "5"], "--cycles must be >= 10"),
+    (["calibrate", "--robot", "nao"], "unknown robot 'nao'"),
+    (["calibrate", "--vx", "0", "--duration", "3"], "no forward swing motion"),
 ]
 
 

@@ -15,7 +15,7 @@ Usage::
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -47,6 +47,9 @@ class SwingCopFit:
         RMS of the forward CoP deviation from the ZMP, raw and with ``κ a + offset`` removed [m].
     samples : int
         Single-support ticks used.
+    swing_acceleration_mps2, cop_deviation_m : ndarray, shape (samples,)
+        The fitted pairs: forward swing-foot acceleration [m/s²] and forward CoP deviation from
+        the ZMP [m].
     """
 
     gain_s2: float
@@ -54,6 +57,18 @@ class SwingCopFit:
     rms_before_m: float
     rms_after_m: float
     samples: int
+    swing_acceleration_mps2: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    cop_deviation_m: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+
+    def summary(self) -> dict:
+        """JSON-ready numbers (without the samples)."""
+        return {
+            "swing_cop_gain_s2": round(self.gain_s2, 6),
+            "offset_m": round(self.offset_m, 6),
+            "cop_deviation_rms_m": round(self.rms_before_m, 5),
+            "residual_rms_m": round(self.rms_after_m, 5),
+            "samples": self.samples,
+        }
 
 
 def fit_swing_cop_gain(
@@ -113,7 +128,7 @@ def fit_swing_cop_gain(
     if dev.size < 10 or np.ptp(acc) < MIN_SWING_ACCELERATION_RANGE_MPS2:
         raise ParameterError(
             f"{spec.name}: no forward swing motion to fit κ on ({dev.size} single-support ticks); "
-            "walk forward for longer"
+            "walk forward (vx > 0) for a few seconds"
         )
     design = np.column_stack([acc, np.ones_like(acc)])
     (gain, offset), *_ = np.linalg.lstsq(design, dev, rcond=None)
@@ -121,7 +136,7 @@ def fit_swing_cop_gain(
     return SwingCopFit(
         gain_s2=float(gain), offset_m=float(offset),
         rms_before_m=float(np.sqrt(np.mean(dev**2))), rms_after_m=float(np.sqrt(np.mean(residual**2))),
-        samples=int(dev.size),
+        samples=int(dev.size), swing_acceleration_mps2=acc, cop_deviation_m=dev,
     )
 
 
