@@ -84,8 +84,8 @@ def fit_swing_cop_gain(
     robot : str, path or RobotSpec
         Built-in name or TOML path (:func:`~robust_ismpc.robots.spec.load_robot`), or a spec.
     command : WalkCommand, optional
-        Walking command (default: forward at the robot's usual speed, 0.2 m/s for G1; pass a
-        smaller one for a small robot).
+        Walking command (default: forward at 0.2 m/s; use a speed the robot walks at, e.g. 0.15
+        m/s for OP3).
     duration_s : float
         Walk length [s].
     settle_s : float
