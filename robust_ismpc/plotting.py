@@ -27,6 +27,14 @@ def _save(fig, path: Path) -> None:
     atomic_write_bytes(Path(path), buffer.getvalue())
 
 
+def _finish(plt, fig, path: str | Path) -> Path:
+    """Lay out, write and close ``fig``; returns the path."""
+    fig.tight_layout()
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
+
+
 def _sole_outline(pos: np.ndarray, yaw: float, corners: np.ndarray) -> np.ndarray:
     """``corners`` (sole frame, shape (4, 2)) rotated by ``yaw`` and moved to ``pos`` [m]."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -136,10 +144,7 @@ def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     axes.append(fig.add_subplot(grid[3], sharex=axes[1]))
     meta = trace.meta
     _draw_run(axes, trace, title or f"{meta.get('robot')} / {meta.get('sim')} / {meta.get('controller')}")
-    fig.tight_layout()
-    _save(fig, Path(path))
-    plt.close(fig)
-    return Path(path)
+    return _finish(plt, fig, path)
 
 
 def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | Path, title: str = "",
@@ -166,10 +171,7 @@ def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | 
                              textcoords="offset points", fontsize=8)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    _save(fig, Path(path))
-    plt.close(fig)
-    return Path(path)
+    return _finish(plt, fig, path)
 
 
 def plot_swing_cop_fit(acceleration_mps2: np.ndarray, deviation_m: np.ndarray, gain_s2: float, offset_m: float,
@@ -190,7 +192,4 @@ def plot_swing_cop_fit(acceleration_mps2: np.ndarray, deviation_m: np.ndarray, g
     ax.legend(loc="best")
     if title:
         ax.set_title(title)
-    fig.tight_layout()
-    _save(fig, Path(path))
-    plt.close(fig)
-    return Path(path)
+    return _finish(plt, fig, path)
