@@ -196,8 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
     p_sweep.add_argument("--push-duration", type=_finite_float("push-duration"), default=0.1,
                          help="duration of the impulsive push [s] (0.1)")
     p_sweep.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
-    p_sweep.add_argument("--duration", type=_finite_float("duration"), default=3.0,
-                         help="simulated time after the push starts [s] (3)")
+    p_sweep.add_argument("--duration", type=_finite_float("duration"), default=None,
+                         help="simulated time after the push starts [s] (3 on the LIP, 6 in MuJoCo, where the "
+                         "full robot can fall seconds after a push)")
     p_sweep.add_argument("--iterations", type=int, default=8,
                          help="bisection steps after the trial at the maximum; resolution = max / 2^N (8)")
     p_sweep.add_argument("--pushed-step", type=int, default=4,
@@ -473,6 +474,7 @@ def cmd_sweep(args) -> int:
     import shlex
 
     from .sweep import (
+        DEFAULT_POST_PUSH_S,
         SweepConfig,
         frontier_table,
         parse_controllers,
@@ -485,7 +487,8 @@ def cmd_sweep(args) -> int:
         robot=args.robot, sim=args.sim, controllers=parse_controllers(args.controllers),
         directions_deg=parse_directions(args.direction), phases=parse_phases(args.phase),
         impulse_max_ns=args.impulse_max, force_max_n=args.force_max, push_duration_s=args.push_duration,
-        vx_mps=args.vx, post_push_s=args.duration, iterations=args.iterations, pushed_step=args.pushed_step,
+        vx_mps=args.vx, post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
+        iterations=args.iterations, pushed_step=args.pushed_step,
         seed=args.seed,
     )
     progress = _sweep_progress(args)

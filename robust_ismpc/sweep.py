@@ -197,6 +197,12 @@ def parse_phases(text: str) -> tuple[float, ...]:
 # ---------------------------------------------------------------------------------------------
 # Configuration, tasks and trials
 # ---------------------------------------------------------------------------------------------
+#: Default time after the push [s] per simulator (``ismpc sweep --duration``). MuJoCo G1, 0.2 m/s,
+#: 16 cells: the 3 s window reported a mean nominal frontier of 7.41 / 3.23 / 3.61 / 3.14 N s
+#: (0°, 90°, 180°, 270°), the 6 s window 5.62 / 1.55 / 2.48 / 2.62 N s (docs/sweeps.md).
+DEFAULT_POST_PUSH_S = {"lip": 3.0, "mujoco": 6.0}
+
+
 @dataclass(frozen=True)
 class SweepConfig:
     """What a sweep measures (everything that changes its results; not how it is executed).
@@ -222,7 +228,10 @@ class SweepConfig:
     vx_mps : float
         Forward walking command [m/s].
     post_push_s : float
-        Simulated time after the push starts [s]: long enough to see a fall.
+        Simulated time after the push starts [s]: long enough to see a fall. On the LIP a push
+        fails within a step (QP infeasible); the full G1 can fall 3-4.5 s after a small push
+        (1.5 N s to the left at 0.2 m/s, nominal: fell at 8.72 s, 4.5 s after the push), which a
+        3 s window counts as survived. ``ismpc sweep`` uses :data:`DEFAULT_POST_PUSH_S`.
     iterations : int
         Bisection trials after the first trial at the maximum (resolution ``max / 2**iterations``).
     pushed_step : int
@@ -1331,7 +1340,7 @@ def format_report(
 
 
 __all__ = [
-    "Bisection", "COLUMNS", "SweepConfig", "SweepProgress", "SweepResult", "TaskKey", "Trial", "TrialResult",
+    "Bisection", "COLUMNS", "DEFAULT_POST_PUSH_S", "SweepConfig", "SweepProgress", "SweepResult", "TaskKey", "Trial", "TrialResult",
     "bisect", "controller_modules", "format_report", "frontier_summary", "frontier_table", "make_backend",
     "parse_controllers", "parse_directions", "parse_phases", "plot_frontiers", "read_runs", "run_sweep",
     "run_trial", "trial_seed",

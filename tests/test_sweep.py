@@ -376,3 +376,18 @@ def test_sigint_stops_worker_processes_and_exits_130(tmp_path):
         except OSError:
             pass
     assert not left, f"worker processes still running: {left}"
+
+
+def test_mujoco_sweeps_watch_longer_after_the_push(tmp_path):
+    """`ismpc sweep --sim mujoco` runs each trial 6 s past the push (the full G1 can fall 4.5 s after
+    a small push); the LIP keeps 3 s; --duration overrides both."""
+    pytest.importorskip("mujoco")
+    from robust_ismpc.cli import main
+
+    common = ["sweep", "--controllers", "nominal", "--direction", "0", "--phase", "0", "--impulse-max", "1",
+              "--iterations", "1", "--workers", "1", "--quiet"]
+    for sim, extra, expected in (("mujoco", [], 6.0), ("lip", [], 3.0), ("lip", ["--duration", "2"], 2.0)):
+        out = tmp_path / f"{sim}{len(extra)}"
+        assert main([*common, "--sim", sim, *extra, "--out", str(out)]) == 0
+        config = json.loads((out / "sweep.json").read_text())["config"]
+        assert config["post_push_s"] == expected
