@@ -23,7 +23,7 @@ from .exceptions import ControllerFailure, InfeasibleMpc, ParameterError, Solver
 from .footsteps import LEFT, FootstepPlan
 from .lip import discretise
 from .mpc import IsmpcQp, MpcPlan, MpcState
-from .params import MpcParams, RobotParams, check_positive
+from .params import MpcParams, RobotParams, check_fraction, check_positive
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
@@ -138,11 +138,8 @@ class IsmpcController:
     ):
         if velocity_feedback_gain is None:
             velocity_feedback_gain = state_feedback_gain
-        gains = (("state_feedback_gain", state_feedback_gain), ("velocity_feedback_gain", velocity_feedback_gain),
-                 ("path_feedback_gain", path_feedback_gain))
-        for name, gain in gains:
-            if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
-                raise ParameterError(f"{name} must be in [0, 1], got {gain!r}")
+        check_fraction("IsmpcController", state_feedback_gain=state_feedback_gain,
+                       velocity_feedback_gain=velocity_feedback_gain, path_feedback_gain=path_feedback_gain)
         check_positive("IsmpcController", path_feedback_max_m=path_feedback_max_m)
         if path_feedback_gain > 0 and anchor_landed_footsteps:
             raise ParameterError(
@@ -281,12 +278,13 @@ class IsmpcController:
         if j < 2 or j <= self._anchored_step or t_s < plan.touchdown_s[j] - 1e-9:
             return
         self._anchored_step = j
+        side = int(plan.side[j])
         sole = None
         if measurement is not None:
-            sole = measurement.left_sole_m if int(plan.side[j]) == LEFT else measurement.right_sole_m
+            sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
         if self.anchor_landed_footsteps and sole is not None:
             plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
-            self.feet[int(plan.side[j])].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
+            self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
             offset = plan.pos_m[j] - plan.candidate_pos_m[j]
             plan.candidate_pos_m[j:] += offset

@@ -26,6 +26,13 @@ def check_positive(owner: str, **values: float) -> None:
             raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
 
 
+def check_fraction(owner: str, **values: float) -> None:
+    """Raise ParameterError naming ``owner.name`` unless every value is a number in [0, 1]."""
+    for name, value in values.items():
+        if not _is_number(value) or not 0.0 <= value <= 1.0:
+            raise ParameterError(f"{owner}.{name} must be in [0, 1], got {value!r}")
+
+
 def check_nonnegative(owner: str, **values: float) -> None:
     """Raise ParameterError naming ``owner.name`` unless every value is a finite number >= 0."""
     for name, value in values.items():

@@ -1,6 +1,5 @@
 """Feasibility governor of the mid-range disturbance (robust_ismpc.governor and its use)."""
 
-import logging
 
 import numpy as np
 import pytest
@@ -17,11 +16,7 @@ ROBOT = robot_params("g1")
 PUSH_T = 4.25  # 0.05 s into the single support of step 5
 
 
-@pytest.fixture(autouse=True)
-def _quiet():
-    logging.disable(logging.WARNING)
-    yield
-    logging.disable(logging.NOTSET)
+pytestmark = pytest.mark.usefixtures("quiet_logs")
 
 
 def test_governed_target_lies_between_persistent_and_fresh_and_inside_the_interval():

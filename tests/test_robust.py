@@ -1,6 +1,5 @@
 """Robust IS-MPC on the LIP: observer, restriction, step timing and their combination (issue evidence)."""
 
-import logging
 
 import numpy as np
 import pytest
@@ -34,11 +33,7 @@ def _walk(modules, forces=(), duration_s=12.0, mpc=None, vx=0.2, **kwargs):
     return outcome, rec.finish(controller.plan, {}), controller
 
 
-@pytest.fixture(autouse=True)
-def _quiet():
-    logging.disable(logging.WARNING)
-    yield
-    logging.disable(logging.NOTSET)
+pytestmark = pytest.mark.usefixtures("quiet_logs")
 
 
 def test_observer_converges_to_constant_force_and_stays_zero_without():

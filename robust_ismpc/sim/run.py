@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..exceptions import ControllerFailure, ParameterError, SolverError
+from ..params import check_fraction, check_nonnegative
 from ..planner import plan_footsteps
 from ..report import summarize
 from ..robots.spec import BUILTIN_ROBOTS, load_robot
@@ -130,13 +131,9 @@ class WalkSettings:
     fall: FallCriteria = field(default_factory=FallCriteria)
 
     def __post_init__(self) -> None:
-        for name in ("state_feedback_gain", "velocity_feedback_gain", "path_feedback_gain"):
-            gain = getattr(self, name)
-            if not (isinstance(gain, (int, float)) and 0.0 <= gain <= 1.0):
-                raise ParameterError(f"WalkSettings.{name} must be in [0, 1], got {gain!r}")
-        strides = self.disturbance_average_strides
-        if not (isinstance(strides, (int, float)) and math.isfinite(strides) and strides >= 0):
-            raise ParameterError(f"WalkSettings.disturbance_average_strides must be a finite number >= 0, got {strides!r}")
+        check_fraction("WalkSettings", state_feedback_gain=self.state_feedback_gain,
+                       velocity_feedback_gain=self.velocity_feedback_gain, path_feedback_gain=self.path_feedback_gain)
+        check_nonnegative("WalkSettings", disturbance_average_strides=self.disturbance_average_strides)
         check_dcm_band("WalkSettings", self.measured_dcm_band_m)
 
 
