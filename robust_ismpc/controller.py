@@ -217,6 +217,7 @@ class IsmpcController:
         self._anchored_step = 1
         self.path_shift_m = np.zeros(2)  # total move of the later footsteps by the path feedback
         self._swing_step: dict[int, int] = {}
+        self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
         self.info = CycleInfo()
@@ -237,11 +238,21 @@ class IsmpcController:
         return self.qp.solve(self.plan, state, self._restriction(), self._swing_cop_offset(state.t_s))
 
     def _swing_cop_offset(self, t_s: float) -> np.ndarray | None:
-        """Predicted shift of the robot's CoP by the swing leg over the horizon (None on a LIP)."""
+        """Predicted shift of the robot's CoP by the swing leg over the horizon (None on a LIP).
+
+        Shape (C, 2) [m], world frame, for the ZMP rows at t_{k+1} .. t_{k+C}. Computed once per
+        cycle and step timing: the robust controller's feasibility checks and QP retries reuse it.
+        """
         if self.robot.swing_cop_gain_s2 == 0.0:
             return None
+        key = (t_s, self.plan.touchdown_s.tobytes())
+        if self._cop_offset_cache is not None and self._cop_offset_cache[0] == key:
+            return self._cop_offset_cache[1]
         times = t_s + self.qp.horizon_offsets_s
-        return swing_cop_offset(self.plan, t_s, times, self.feet, self.robot.swing_cop_gain_s2)
+        offset = swing_cop_offset(self.plan, t_s, times, self.feet, self.robot.swing_cop_gain_s2)
+        offset.setflags(write=False)
+        self._cop_offset_cache = (key, offset)
+        return offset
 
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""

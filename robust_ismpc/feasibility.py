@@ -37,6 +37,11 @@ For step timing adaptation the touchdown of the current step is encoded as
 its offset from the first one. The bounds are piecewise affine in Δλ with jumps where a footstep
 enters the control horizon; :func:`affine_inner_estimate` fits the tightest line that stays
 inside them on an interval.
+
+A known offset :math:`o_i` of the constrained point from the ZMP on row i (the QP bounds
+:math:`x_z^{k+i} + o_i` instead of :math:`x_z^{k+i}`, e.g. the CoP a swing leg adds,
+:mod:`robust_ismpc.swing_cop`) moves both bounds by :math:`-\sum_i \kappa_i o_i`, with the row
+weights of :func:`zmp_row_weights` (``docs/derivations.md`` §5).
 """
 
 from __future__ import annotations
@@ -61,6 +66,7 @@ __all__ = [
     "build_axis_program",
     "feasibility_bounds_lp",
     "straight_gait_inputs",
+    "zmp_row_weights",
 ]
 
 TAIL_ANCHORS = ("candidate", "decision")
@@ -477,7 +483,51 @@ class AxisProgram:
     decision_index: np.ndarray
 
 
-def build_axis_program(inputs: AxisFeasibilityInputs, first_ramp_start_s: float) -> AxisProgram:
+def zmp_row_weights(eta: float, sampling_period_s: float, control_horizon_s: float) -> np.ndarray:
+    r"""Weight of each ZMP row in the feasibility bounds.
+
+    Written with the ZMPs :math:`z_i = x_z^{k+i}` (i = 1..C) instead of their velocities, the
+    stability constraint reads :math:`\bar x_u = \text{const} + \sum_i \kappa_i z_i` with
+
+    .. math::
+
+        \kappa_i = \frac{(1-\lambda)^2\lambda^{i-1}}{\eta\delta}\ (i < C),\qquad
+        \kappa_C = \frac{(1-\lambda)\lambda^{C-1}}{\eta\delta} - \lambda^C,
+
+    all >= 0, summing to :math:`1 - w_0 - \mu_c`. A known offset :math:`o_i` of the constrained
+    point from row i's ZMP (the box bounds :math:`z_i + o_i`) therefore moves both feasibility
+    bounds by :math:`-\sum_i \kappa_i o_i` (``docs/derivations.md`` §5).
+
+    Parameters
+    ----------
+    eta : float
+        η [1/s].
+    sampling_period_s, control_horizon_s : float
+        δ and T_c [s]; T_c a whole multiple of δ.
+
+    Returns
+    -------
+    ndarray, shape (C,)
+        κ_1 .. κ_C, for the rows at t_{k+1} .. t_{k+C} [-].
+    """
+    _positive("zmp_row_weights", eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
+    ratio = control_horizon_s / sampling_period_s
+    if abs(ratio - round(ratio)) > 1e-6:
+        raise ParameterError(
+            f"zmp_row_weights: control_horizon_s ({control_horizon_s}) must be a whole multiple of "
+            f"sampling_period_s ({sampling_period_s})"
+        )
+    C = int(round(ratio))
+    lam = math.exp(-eta * sampling_period_s)
+    scale = (1.0 - lam) / (eta * sampling_period_s)
+    weights = scale * (1.0 - lam) * lam ** np.arange(C)
+    weights[-1] = scale * lam ** (C - 1) - lam**C
+    return weights
+
+
+def build_axis_program(
+    inputs: AxisFeasibilityInputs, first_ramp_start_s: float, zmp_offset_m: np.ndarray | None = None
+) -> AxisProgram:
     """Build the per-axis QP constraint set (sampled rows, position-form stability) as an LP.
 
     Written from the QP's definition (spec §2.3, §3.2, §4, §5, §6.3), not from the closed
@@ -488,6 +538,9 @@ def build_axis_program(inputs: AxisFeasibilityInputs, first_ramp_start_s: float)
     inputs : AxisFeasibilityInputs
     first_ramp_start_s : float
         a_1 = t_s − t_k [s].
+    zmp_offset_m : ndarray, shape (C,), optional
+        Offset o_i of the constrained point from the ZMP on the rows at t_{k+1} .. t_{k+C}
+        [m]: the box bounds x_z + o (as ``IsmpcQp.build``'s ``zmp_offset_m`` on one axis).
     """
     d = inputs.sampling_period_s
     eta = inputs.eta
@@ -522,6 +575,12 @@ def build_axis_program(inputs: AxisFeasibilityInputs, first_ramp_start_s: float)
     b_zmp_up = half + c0[1:C + 1] - inputs.zmp_pos_m
     A_zmp_dn = np.hstack((-L, cq[1:C + 1]))
     b_zmp_dn = half - c0[1:C + 1] + inputs.zmp_pos_m
+    if zmp_offset_m is not None:
+        offset = np.asarray(zmp_offset_m, dtype=float)
+        if offset.shape != (C,) or not np.all(np.isfinite(offset)):
+            raise ParameterError(f"zmp_offset_m must be a finite array of shape ({C},), got shape {offset.shape}")
+        b_zmp_up = b_zmp_up - offset
+        b_zmp_dn = b_zmp_dn + offset
     # Kinematic rows: lo_j <= p_j - p_{j-1} <= hi_j for decision footsteps.
     A_kin, b_kin = [], []
     for j0 in decision.tolist():
@@ -548,8 +607,11 @@ def build_axis_program(inputs: AxisFeasibilityInputs, first_ramp_start_s: float)
                        decision_index=decision)
 
 
-def feasibility_bounds_lp(inputs: AxisFeasibilityInputs, first_ramp_start_s: float) -> tuple[float, float]:
-    """Feasibility bounds by linear programming on :func:`build_axis_program` (verification).
+def feasibility_bounds_lp(
+    inputs: AxisFeasibilityInputs, first_ramp_start_s: float, zmp_offset_m: np.ndarray | None = None
+) -> tuple[float, float]:
+    """Feasibility bounds by linear programming on :func:`build_axis_program` (verification;
+    ``zmp_offset_m`` as there).
 
     Returns
     -------
@@ -561,7 +623,7 @@ def feasibility_bounds_lp(inputs: AxisFeasibilityInputs, first_ramp_start_s: flo
     SolverError
         If the LP solver fails (e.g. the restricted box is empty).
     """
-    prog = build_axis_program(inputs, first_ramp_start_s)
+    prog = build_axis_program(inputs, first_ramp_start_s, zmp_offset_m)
     out = []
     for sign in (1.0, -1.0):
         res = scipy.optimize.linprog(sign * prog.dcm_row, A_ub=prog.A_ub, b_ub=prog.b_ub,

@@ -26,7 +26,7 @@ import numpy as np
 
 from .controller import IsmpcController
 from .exceptions import InfeasibleMpc, ParameterError
-from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at
+from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from .footsteps import LEFT
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
@@ -237,6 +237,7 @@ class RobustIsmpcController(IsmpcController):
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
         self.timing = _TimingRecord()
+        self._row_weights = zmp_row_weights(self.eta, self.dt, mpc_p.control_horizon_s)
 
     # ------------------------------------------------------------------------------------
     def reset(self, plan, com_pos_m, com_vel_mps=None, left_foot_m=None, right_foot_m=None, t_s: float = 0.0) -> None:
@@ -398,9 +399,20 @@ class RobustIsmpcController(IsmpcController):
                 (key, remaining), feasibility_bounds_at(inputs_x, remaining), feasibility_bounds_at(inputs_y, remaining),
             )
         _, (lx, ux), (ly, uy) = self._bounds_now
-        bx = (lx + w0 * zmp_local[0], ux + w0 * zmp_local[0])
-        by = (ly + w0 * zmp_local[1], uy + w0 * zmp_local[1])
+        # the QP bounds the ZMP plus the swing leg's CoP offset: both bounds move by -Σ κ_i o_i
+        cop_shift = R.T @ self._cop_shift_m(t)
+        bx = (lx + w0 * zmp_local[0] - cop_shift[0], ux + w0 * zmp_local[0] - cop_shift[0])
+        by = (ly + w0 * zmp_local[1] - cop_shift[1], uy + w0 * zmp_local[1] - cop_shift[1])
         return bx, by, R, origin
+
+    def _cop_shift_m(self, t_s: float) -> np.ndarray:
+        """``Σ_i κ_i o_i``, world frame [m]: the feasibility bounds move by minus this when the QP
+        bounds the ZMP plus the swing leg's CoP offset o_i on its rows
+        (:func:`~robust_ismpc.feasibility.zmp_row_weights`). Exact for the current timing; zero
+        without a swing-leg CoP model (κ = 0, the LIP).
+        """
+        offset = self._swing_cop_offset(t_s)
+        return np.zeros(2) if offset is None else self._row_weights @ offset
 
     def _adapt_timing(self, state: MpcState, qp_infeasible: bool = False) -> bool:
         """Check feasibility and adapt the current touchdown if needed; True if it changed."""
@@ -427,9 +439,11 @@ class RobustIsmpcController(IsmpcController):
         ):
             return False
         inputs_x, inputs_y, _, _ = self.feasibility_inputs(t, j, state)
+        # solve_sta's bounds leave out the swing leg's CoP offset; moving the DCM by the offset's
+        # shift instead is the same check (the shift is the current timing's, kept for the new one)
         result = solve_sta(
-            t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]), dcm_local, inputs_x, inputs_y,
-            self.sta_params,
+            t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]),
+            dcm_local + R.T @ self._cop_shift_m(t), inputs_x, inputs_y, self.sta_params,
         )
         if not result.changed:
             return False

@@ -17,6 +17,7 @@ from robust_ismpc.feasibility import (
     feasibility_bounds_lp,
     feasibility_breakpoints,
     straight_gait_inputs,
+    zmp_row_weights,
 )
 from robust_ismpc.params import GRAVITY_MPS2
 
@@ -83,6 +84,44 @@ def test_closed_form_equals_lp(axis, tail_anchor):
             lo_l, hi_l = feasibility_bounds_lp(inp, a1)
             worst = max(worst, abs(lo_c - lo_l), abs(hi_c - hi_l))
     assert worst < 1e-9
+
+
+@pytest.mark.parametrize("axis", ["x", "y"])
+def test_row_offsets_shift_both_bounds_by_weighted_sum(axis):
+    """Bounding x_z + o instead of x_z on the ZMP rows moves the LP's bounds by exactly
+    −Σ κ_i o_i (zmp_row_weights), in single and double support."""
+    rng = np.random.default_rng(5 if axis == "x" else 6)
+    worst = 0.0
+    for _ in range(8):
+        inp = _random_inputs(rng, axis, "candidate")
+        weights = zmp_row_weights(inp.eta, inp.sampling_period_s, inp.control_horizon_s)
+        k_min = -int(round(inp.T_ds_s / DELTA)) + 1
+        for a1 in DELTA * rng.integers(k_min, inp.C + 20, size=3):
+            # a swing-like offset: one period of a sine of up to ±4 cm, random phase
+            offset = 0.04 * rng.uniform() * np.sin(rng.uniform(0, 2 * np.pi) + np.arange(inp.C) * rng.uniform(0.05, 0.3))
+            shift = float(weights @ offset)
+            lo_c, hi_c = feasibility_bounds_at(inp, a1)
+            lo_l, hi_l = feasibility_bounds_lp(inp, a1, offset)
+            worst = max(worst, abs(lo_c - shift - lo_l), abs(hi_c - shift - hi_l))
+    assert worst < 1e-9
+
+
+def test_row_weights_reproduce_box_and_restriction_terms():
+    """The row weights are >= 0, sum to 1 − w0 − μ_c (the box's coefficient in the closed form),
+    and weighting the restriction r δ i gives its closed-form shrink r[(1 − μ_c)/η − T_c μ_c]."""
+    eta, delta, T_c = math.sqrt(GRAVITY_MPS2 / 0.62), DELTA, 1.0
+    weights = zmp_row_weights(eta, delta, T_c)
+    assert weights.shape == (100,) and np.all(weights >= 0.0)
+    lam = math.exp(-eta * delta)
+    w0 = 1 - (1 - lam) / (eta * delta)
+    mu_c = math.exp(-eta * T_c)
+    assert weights.sum() == pytest.approx(1 - w0 - mu_c, abs=1e-14)
+    restriction = 0.02 * delta * np.arange(1, 101)
+    assert weights @ restriction == pytest.approx(0.02 * ((1 - mu_c) / eta - T_c * mu_c), rel=1e-12)
+    with pytest.raises(ParameterError, match="whole multiple"):
+        zmp_row_weights(eta, delta, 0.995)
+    with pytest.raises(ParameterError):
+        zmp_row_weights(-1.0, delta, T_c)
 
 
 def test_closed_form_equals_lp_coarse_sampling():

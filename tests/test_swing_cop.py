@@ -7,10 +7,11 @@ import pytest
 from fixtures import straight_plan
 
 from robust_ismpc.controller import IsmpcController
-from robust_ismpc.exceptions import ParameterError
+from robust_ismpc.exceptions import InfeasibleMpc, ParameterError
 from robust_ismpc.footsteps import LEFT
-from robust_ismpc.mpc import IsmpcQp
+from robust_ismpc.mpc import IsmpcQp, MpcState
 from robust_ismpc.params import MpcParams, robot_params
+from robust_ismpc.robust import RobustIsmpcController
 from robust_ismpc.swing import SwingState, quintic_step
 from robust_ismpc.swing_cop import quintic_acceleration, swing_acceleration, swing_cop_offset
 
@@ -124,6 +125,56 @@ def test_controller_keeps_the_robots_cop_not_the_lip_zmp_in_the_box(robot):
         controller.step(t)
     assert worst_cop < 1e-6
     assert worst_zmp > 0.005
+
+
+def _qp_feasibility_edge(qp, plan, state, offset, axis, inside_m, outside_m, iterations=32):
+    """Bisection for the edge of the QP's feasible DCMs along ``axis`` (world) [m]."""
+    for _ in range(iterations):
+        middle = 0.5 * (inside_m + outside_m)
+        dcm = state.dcm_m.copy()
+        dcm[axis] = middle
+        try:
+            qp.solve(plan, MpcState(t_s=state.t_s, dcm_m=dcm, zmp_m=state.zmp_m), None, offset)
+            inside_m = middle
+        except InfeasibleMpc:
+            outside_m = middle
+    return 0.5 * (inside_m + outside_m)
+
+
+def test_robust_feasibility_bounds_are_the_qps_with_the_swing_cop_offset(robot):
+    """With κ > 0 the QP bounds p + κ a, and the feasibility bounds that the governor and the
+    timing check use move with it: they equal the DCMs for which the QP (with the offset) has a
+    solution, found by bisection, to 1e-7 m; the bounds without the move are off by over 5 mm.
+    (Checked before the last ``footstep_freeze_s`` of the step: there the QP holds the landing
+    footstep fixed while the bounds still count it as a decision, with or without κ.)"""
+    walking = replace(robot, swing_cop_gain_s2=KAPPA_S2, zmp_box_x_m=0.12)  # G1's [gait] values
+    plan = straight_plan(walking, 0.2, duration_s=12.0)
+    controller = RobustIsmpcController(walking, MpcParams(), modules=("timing",))
+    controller.reset(plan, np.zeros(2))
+    probe = IsmpcQp(walking, MpcParams())  # its own solver: infeasible probes do not touch the controller's
+    worst = worst_unshifted = 0.0
+    checked = 0
+    t = 0.0
+    for k in range(560):
+        controller.step(t)
+        t = round(t + 0.01, 9)
+        j = plan.step_at(t)
+        if k < 250 or k % 9 or t >= plan.touchdown_s[j] - MpcParams().footstep_freeze_s - 1e-9:
+            continue  # single support of steps 4-7 before the footstep freezes, every 9th tick
+        state = controller._mpc_state(t, None)
+        bounds_x, bounds_y, _, origin = controller._current_bounds(t, j, state, plan.touchdown_s[j] - t)
+        offset = controller._swing_cop_offset(t)
+        shift = controller._cop_shift_m(t)
+        for axis, bounds in enumerate((bounds_x, bounds_y)):
+            for side, bound in zip((-1.0, 1.0), bounds):
+                edge = _qp_feasibility_edge(probe, plan, state, offset, axis, state.dcm_m[axis],
+                                            origin[axis] + bound + side * 0.05) - origin[axis]
+                worst = max(worst, abs(edge - bound))
+                worst_unshifted = max(worst_unshifted, abs(edge - (bound + shift[axis])))
+        checked += 1
+    assert checked >= 15
+    assert worst < 1e-7
+    assert worst_unshifted > 0.005
 
 
 def test_negative_swing_cop_gain_is_refused(robot):
