@@ -353,7 +353,11 @@ class RobustIsmpcController(IsmpcController):
         td = plan.touchdown_s
         n = max(1, int(np.count_nonzero(td[j:] < t_s + mpc.preview_horizon_s - 1e-9)))
         idx = np.arange(j, min(j + n, plan.n_footsteps))
-        candidates = (plan.candidate_pos_m[idx] - origin) @ R  # rows Rᵀ(p - origin)
+        targets = plan.candidate_pos_m[idx].copy()
+        frozen = self._landing_footstep_frozen(t_s, j)
+        if frozen:  # the QP holds the landing footstep where it last put it
+            targets[0] = plan.pos_m[j]
+        candidates = (targets - origin) @ R  # rows Rᵀ(p - origin)
         nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
         sides = plan.side[idx].astype(float)
         zmp_local = R.T @ ((state.zmp_m if zmp_m is None else zmp_m) - origin)
@@ -364,17 +368,25 @@ class RobustIsmpcController(IsmpcController):
             control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
         )
         half_x = np.full(len(idx), 0.5 * robot.kin_box_x_m)
+        lo = np.column_stack([-half_x, sides * robot.foot_spacing_m - 0.5 * robot.kin_box_y_m])
+        hi = np.column_stack([half_x, sides * robot.foot_spacing_m + 0.5 * robot.kin_box_y_m])
+        if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
+            lo, hi = nominal.copy(), nominal.copy()
+        elif frozen:
+            lo[0] = hi[0] = nominal[0]
         inputs_x = AxisFeasibilityInputs(
             zmp_pos_m=float(zmp_local[0]), zmp_half_width_m=0.5 * robot.zmp_box_x_m,
-            disp_lo_m=-half_x, disp_hi_m=half_x, disp_nominal_m=nominal[:, 0], **common,
+            disp_lo_m=lo[:, 0], disp_hi_m=hi[:, 0], disp_nominal_m=nominal[:, 0], **common,
         )
         inputs_y = AxisFeasibilityInputs(
             zmp_pos_m=float(zmp_local[1]), zmp_half_width_m=0.5 * robot.zmp_box_y_m,
-            disp_lo_m=sides * robot.foot_spacing_m - 0.5 * robot.kin_box_y_m,
-            disp_hi_m=sides * robot.foot_spacing_m + 0.5 * robot.kin_box_y_m,
-            disp_nominal_m=nominal[:, 1], **common,
+            disp_lo_m=lo[:, 1], disp_hi_m=hi[:, 1], disp_nominal_m=nominal[:, 1], **common,
         )
         return inputs_x, inputs_y, R, origin
+
+    def _landing_footstep_frozen(self, t_s: float, j: int) -> bool:
+        """True once the QP holds footstep j fixed (the last ``footstep_freeze_s`` before touchdown)."""
+        return bool(t_s >= self.plan.touchdown_s[j] - self.mpc_params.footstep_freeze_s - 1e-9)
 
     def _current_bounds(self, t: float, j: int, state: MpcState, remaining: float):
         """Exact feasibility bounds for the current timing, in the support frame.
@@ -386,7 +398,7 @@ class RobustIsmpcController(IsmpcController):
         """
         td = self.plan.touchdown_s
         n = int(np.count_nonzero(td[j:] < t + self.mpc_params.preview_horizon_s - 1e-9))
-        key = (j, n, self._anchored_step, self.timing.adaptations)
+        key = (j, n, self._anchored_step, self.timing.adaptations, self._landing_footstep_frozen(t, j))
         if self._bounds_cache is None or self._bounds_cache[0] != key:
             origin = self.plan.pos_m[j - 1]
             inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state, zmp_m=origin)

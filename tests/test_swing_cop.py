@@ -141,26 +141,28 @@ def _qp_feasibility_edge(qp, plan, state, offset, axis, inside_m, outside_m, ite
     return 0.5 * (inside_m + outside_m)
 
 
-def test_robust_feasibility_bounds_are_the_qps_with_the_swing_cop_offset(robot):
+@pytest.mark.parametrize("fix_footsteps", [False, True], ids=["free footsteps", "fixed footsteps"])
+def test_robust_feasibility_bounds_are_the_qps_with_the_swing_cop_offset(robot, fix_footsteps):
     """With κ > 0 the QP bounds p + κ a, and the feasibility bounds that the governor and the
     timing check use move with it: they equal the DCMs for which the QP (with the offset) has a
-    solution, found by bisection, to 1e-7 m; the bounds without the move are off by over 5 mm.
-    (Checked before the last ``footstep_freeze_s`` of the step: there the QP holds the landing
-    footstep fixed while the bounds still count it as a decision, with or without κ.)"""
+    solution, found by bisection, to 1e-7 m, also in the last ``footstep_freeze_s`` before
+    touchdown, where the QP holds the landing footstep fixed; the bounds without the move are off
+    by over 5 mm. Likewise with every footstep fixed (``MpcParams.fix_footsteps``)."""
     walking = replace(robot, swing_cop_gain_s2=KAPPA_S2, zmp_box_x_m=0.12)  # G1's [gait] values
     plan = straight_plan(walking, 0.2, duration_s=12.0)
-    controller = RobustIsmpcController(walking, MpcParams(), modules=("timing",))
+    mpc = MpcParams(fix_footsteps=fix_footsteps)
+    controller = RobustIsmpcController(walking, mpc, modules=("timing",))
     controller.reset(plan, np.zeros(2))
-    probe = IsmpcQp(walking, MpcParams())  # its own solver: infeasible probes do not touch the controller's
+    probe = IsmpcQp(walking, mpc)  # its own solver: infeasible probes do not touch the controller's
     worst = worst_unshifted = 0.0
-    checked = 0
+    checked = frozen = 0
     t = 0.0
     for k in range(560):
         controller.step(t)
         t = round(t + 0.01, 9)
         j = plan.step_at(t)
-        if k < 250 or k % 9 or t >= plan.touchdown_s[j] - MpcParams().footstep_freeze_s - 1e-9:
-            continue  # single support of steps 4-7 before the footstep freezes, every 9th tick
+        if k < 250 or k % 9 or t >= plan.touchdown_s[j] - 1e-9:
+            continue  # single support of steps 4-7, every 9th tick (the phase drifts by 0.02 s per step)
         state = controller._mpc_state(t, None)
         bounds_x, bounds_y, _, origin = controller._current_bounds(t, j, state, plan.touchdown_s[j] - t)
         offset = controller._swing_cop_offset(t)
@@ -172,7 +174,8 @@ def test_robust_feasibility_bounds_are_the_qps_with_the_swing_cop_offset(robot):
                 worst = max(worst, abs(edge - bound))
                 worst_unshifted = max(worst_unshifted, abs(edge - (bound + shift[axis])))
         checked += 1
-    assert checked >= 15
+        frozen += controller._landing_footstep_frozen(t, j)
+    assert checked >= 15 and frozen >= 2
     assert worst < 1e-7
     assert worst_unshifted > 0.005
 
