@@ -337,7 +337,10 @@ class RobustIsmpcController(IsmpcController):
     def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
         """Per-axis feasibility inputs in the frame of the current support footstep j-1.
 
-        ``zmp_m`` overrides the ZMP of ``state`` (world frame) when given.
+        ``zmp_m`` overrides the ZMP of ``state`` (world frame) when given. As in the QP, the
+        landing footstep j can move within the kinematic box except in the last
+        ``footstep_freeze_s`` before touchdown (held where the QP froze it), and with
+        ``fix_footsteps`` no footstep moves from its candidate.
 
         Returns
         -------

@@ -97,7 +97,7 @@ def test_row_offsets_shift_both_bounds_by_weighted_sum(axis):
         weights = zmp_row_weights(inp.eta, inp.sampling_period_s, inp.control_horizon_s)
         k_min = -int(round(inp.T_ds_s / DELTA)) + 1
         for a1 in DELTA * rng.integers(k_min, inp.C + 20, size=3):
-            # a swing-like offset: one period of a sine of up to ±4 cm, random phase
+            # a swing-like offset: a sine of up to ±4 cm with random phase and frequency
             offset = 0.04 * rng.uniform() * np.sin(rng.uniform(0, 2 * np.pi) + np.arange(inp.C) * rng.uniform(0.05, 0.3))
             shift = float(weights @ offset)
             lo_c, hi_c = feasibility_bounds_at(inp, a1)
