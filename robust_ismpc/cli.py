@@ -91,6 +91,9 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--out", required=True, help="output directory (summary.json, gait.png, trace.npz)")
     p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     p.add_argument("--video", action="store_true", help="mujoco only: also write an mp4 (offscreen rendering)")
+    p.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
+                   help="mujoco only: servo (position servos play back the whole-body IK, default) or torque "
+                        "(an inverse-dynamics QP drives the joints; see docs/robots.md)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -254,7 +257,7 @@ def _spec(args, modules: tuple[str, ...]):
     return RunSpec(
         robot=args.robot, sim=args.sim, modules=modules,
         command=WalkCommand(args.vx, args.vy, args.omega), duration_s=args.duration,
-        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max,
+        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body,
     )
 
 
@@ -319,7 +322,8 @@ def _compare_scenario(args) -> int:
     args.duration = scenario.duration_s
     out = _prepare_out(args.out, args.overwrite)
     result = run_scenario(scenario, seed=args.seed, extra_forces=_forces(args),
-                          progress=lambda label: _progress(args, label), video_dir=out if args.video else None)
+                          progress=lambda label: _progress(args, label), video_dir=out if args.video else None,
+                          whole_body=args.whole_body)
     for label, run_result in result.results.items():
         (out / label).mkdir(exist_ok=True)
         _end_progress(args)

@@ -56,6 +56,7 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
     summary = {
         "robot": meta.get("robot"),
         "sim": meta.get("sim"),
+        "whole_body": meta.get("whole_body", "servo") if meta.get("sim") == "mujoco" else None,
         "controller": meta.get("controller"),
         "modules": list(meta.get("modules", [])),
         "fell": bool(fell),

@@ -22,6 +22,8 @@ from .trace import Trace
 
 MODULES = ("observer", "restriction", "timing")
 SIMS = ("lip", "mujoco")
+#: Whole-body control on MuJoCo: position servos playing back the IK, or inverse-dynamics torques.
+WHOLE_BODY_CONTROLS = ("servo", "torque")
 
 
 def parse_modules(controller: str, modules: str | None = None) -> tuple[str, ...]:
@@ -65,6 +67,10 @@ class RunSpec:
         Deviation bound Δmax for the restriction [m/s²] (None: module default).
     mpc : MpcParams
         MPC settings.
+    whole_body : str
+        MuJoCo only: ``servo`` (the model's position servos play back the whole-body IK, the
+        default) or ``torque`` (an inverse-dynamics QP drives torque motors,
+        :mod:`robust_ismpc.sim.inverse_dynamics`).
     """
 
     robot: str = "g1"
@@ -76,10 +82,17 @@ class RunSpec:
     seed: int = 0
     delta_max_mps2: float | None = None
     mpc: MpcParams = field(default_factory=MpcParams)
+    whole_body: str = "servo"
 
     def __post_init__(self) -> None:
         if self.sim not in SIMS:
             raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
+        if self.whole_body not in WHOLE_BODY_CONTROLS:
+            raise ParameterError(
+                f"unknown whole-body control {self.whole_body!r}; use one of: {', '.join(WHOLE_BODY_CONTROLS)}"
+            )
+        if self.whole_body != "servo" and self.sim != "mujoco":
+            raise ParameterError(f"whole-body control {self.whole_body!r} needs the mujoco simulator (the LIP has no joints)")
         robot_params(self.robot)  # validates the name
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
@@ -143,6 +156,7 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
             for f in spec.forces
         ],
         "delta_max_mps2": spec.delta_max_mps2,
+        "whole_body": spec.whole_body,
         "zmp_box_x_m": robot.zmp_box_x_m,
         "zmp_box_y_m": robot.zmp_box_y_m,
         "sole_length_m": robot.sole_length_m,

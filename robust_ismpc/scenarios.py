@@ -722,6 +722,7 @@ def run_scenario(
     duration_s: float | None = None,
     progress: Callable[[str], Callable[[float], None] | None] | None = None,
     video_dir=None,
+    whole_body: str = "servo",
 ) -> ScenarioResult:
     """Run the nominal and the robust controller on one seed of ``scenario`` in MuJoCo.
 
@@ -737,6 +738,8 @@ def run_scenario(
         ``progress(label)`` returns the per-run progress callback (or None).
     video_dir : path, optional
         Write ``video_dir/<label>/video.mp4`` for each run.
+    whole_body : str
+        ``servo`` (default) or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`).
     """
     from pathlib import Path
 
@@ -749,6 +752,7 @@ def run_scenario(
     realised = realise(scenario, seed, extra_forces)
     results = {}
     for label, spec in (("nominal", realised.nominal), ("robust", realised.robust)):
+        spec = replace(spec, whole_body=whole_body)
         video = None
         if video_dir is not None:
             (Path(video_dir) / label).mkdir(parents=True, exist_ok=True)
@@ -758,4 +762,6 @@ def run_scenario(
         result.trace.meta["scenario"] = scenario.name
         result.summary["scenario"] = scenario.name
         results[label] = result
-    return ScenarioResult(run=realised, results=results, comparison=comparison_metrics(realised, results))
+    comparison = comparison_metrics(realised, results)
+    comparison["whole_body"] = whole_body
+    return ScenarioResult(run=realised, results=results, comparison=comparison)

@@ -29,6 +29,8 @@ BAD_RUN_ARGS = [
     (["--seed", "-1"], "seed must be an integer >= 0"),
     (["--seed", "1.5"], "seed must be an integer >= 0"),
     (["--delta-max", "-0.1"], "delta max must be a finite number >= 0"),
+    (["--whole-body", "torque"], "needs the mujoco simulator"),
+    (["--whole-body", "stiff"], "invalid choice: 'stiff'"),
 ]
 
 

@@ -10,6 +10,7 @@ from .. import robots as _robots  # noqa: F401  (sets the MUJOCO_GL default befo
 # isort: on
 
 from .disturbances import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
+from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
 from .mujoco_loop import (
     LoopSettings,
     MujocoSimulation,
@@ -37,6 +38,7 @@ __all__ = [
     "Force",
     "ForceSchedule",
     "Impulse",
+    "InverseDynamicsQp",
     "LoopSettings",
     "MujocoRobot",
     "MujocoSimulation",
@@ -45,6 +47,7 @@ __all__ = [
     "PhaseTimes",
     "SolePose",
     "SwingingBall",
+    "TorqueControlSettings",
     "VideoRecorder",
     "VideoSettings",
     "build_scene",

@@ -41,6 +41,7 @@ from ..reference import GaitReference, Measurement
 from ..robots.spec import RobotSpec
 from ..wbik import ActuatorMap, IkSettings, WholeBodyIk
 from .disturbances import Disturbance, ForceSchedule, SceneItem, build_scene, set_scene_initial_state
+from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
 from .mujoco_robot import FallCriteria, MujocoRobot, SolePose, distance_outside, standing_state
 from .video import VideoRecorder, VideoSettings
 
@@ -90,6 +91,12 @@ class LoopSettings:
         the force ``m ŵ`` acting on the CoM (``GaitReference.disturbance_mps2``; zero for the
         nominal controller). Without it the servos carry that force alone: the robot's CoM
         does not take the lean the robust plan asks for (docs/scenarios.md).
+    torque_control : TorqueControlSettings or None
+        Drive the joints with torques from an inverse-dynamics QP
+        (:mod:`robust_ismpc.sim.inverse_dynamics`), solved at every physics step, instead of
+        position targets: the actuators of a copy of the model become torque motors. The IK
+        configuration is then the QP's posture reference; ``gravity_feedforward`` and the motor
+        gains are unused. None (default): the actuators as the model defines them.
     """
 
     control_period_s: float = 0.01
@@ -103,6 +110,7 @@ class LoopSettings:
     foot_friction: float | None = None
     dynamic_feedforward: bool = False
     disturbance_feedforward: bool = True
+    torque_control: TorqueControlSettings | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.control_period_s, (int, float)) or not self.control_period_s > 0:
@@ -113,6 +121,10 @@ class LoopSettings:
             isinstance(self.foot_friction, (int, float)) and math.isfinite(self.foot_friction) and self.foot_friction > 0
         ):
             raise ParameterError(f"LoopSettings.foot_friction must be a finite number > 0 or None, got {self.foot_friction!r}")
+        if self.torque_control is not None and not isinstance(self.torque_control, TorqueControlSettings):
+            raise ParameterError(
+                f"LoopSettings.torque_control must be TorqueControlSettings or None, got {type(self.torque_control).__name__}"
+            )
 
 
 @dataclass(frozen=True)
@@ -221,6 +233,17 @@ _SCALAR_FIELDS = ("t_s", "left_sole_yaw_rad", "right_sole_yaw_rad", "left_force_
 _BOOL_FIELDS = ("left_contact", "right_contact")
 
 
+def _make_torque_motors(model: mujoco.MjModel) -> None:
+    """Turn every actuator of ``model`` into a torque motor (``ctrl`` = joint torque), in place.
+
+    The joints' own actuator force limits (``actuatorfrcrange``) still bound the torque.
+    """
+    model.actuator_gainprm[:, :] = 0.0
+    model.actuator_gainprm[:, 0] = 1.0
+    model.actuator_biasprm[:, :] = 0.0
+    model.actuator_ctrllimited[:] = 0
+
+
 def initial_state(spec: RobotSpec, model: mujoco.MjModel | None = None) -> tuple[np.ndarray, SolePose, SolePose]:
     """CoM and sole poses of the robot standing at the origin, as given to a controller's reset.
 
@@ -261,8 +284,10 @@ class MujocoSimulation:
         self.spec = spec
         self.settings = settings or LoopSettings()
         self.model = build_scene(spec, scene_items)
-        if self.settings.foot_friction is not None:
+        if self.settings.foot_friction is not None or self.settings.torque_control is not None:
             self.model = copy.deepcopy(self.model)  # build_scene may return the cached model
+        if self.settings.torque_control is not None:
+            _make_torque_motors(self.model)
         self.data = mujoco.MjData(self.model)
         timestep = float(self.model.opt.timestep)
         ratio = self.settings.control_period_s / timestep
@@ -280,6 +305,11 @@ class MujocoSimulation:
         self.actuators = ActuatorMap(self.model, self.ik.model)
         self.forces = ForceSchedule(self.model, disturbances, spec.torso_body)
         self.scene_items = tuple(scene_items)
+        self.inverse_dynamics: InverseDynamicsQp | None = None
+        if self.settings.torque_control is not None:
+            self.inverse_dynamics = InverseDynamicsQp(spec, self.model, self.data, self.actuators,
+                                                      self.settings.torque_control)
+        self._reference: GaitReference | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -289,6 +319,8 @@ class MujocoSimulation:
         self.ik.reset()
         self._ik_qpos = self.ik.qpos
         self._ik_qvel = np.zeros(self.ik.model.nv)
+        self._ik_qacc = np.zeros(self.ik.model.nv)
+        self._reference = None
         self._targets = self.actuators.targets(self.ik.qpos)
         self._target_vel = np.zeros(self.model.nu)
         self._feedforward = np.zeros(self.model.nu)
@@ -297,6 +329,13 @@ class MujocoSimulation:
         self._apply_targets()
 
     def _apply_targets(self) -> None:
+        if self.inverse_dynamics is not None:
+            if self._reference is None:  # before the first command: no torque
+                self.data.ctrl[:] = 0.0
+            else:
+                self.data.ctrl[:] = self.inverse_dynamics.torques(
+                    self._reference, self._ik_qpos, self._ik_qvel, self._ik_qacc)
+            return
         act = self.actuators
         targets = self._targets
         if act.is_position.all():
@@ -317,10 +356,11 @@ class MujocoSimulation:
         qvel = np.empty(self.ik.model.nv)
         mujoco.mj_differentiatePos(self.ik.model, qvel, dt, self._ik_qpos, qpos)
         qacc = (qvel - self._ik_qvel) / dt
-        self._ik_qpos, self._ik_qvel = qpos, qvel
+        self._ik_qpos, self._ik_qvel, self._ik_qacc = qpos, qvel, qacc
+        self._reference = reference
         if self.settings.dynamic_feedforward:
             self._target_vel = qvel[self.actuators.ik_dof_index]
-        if self.settings.gravity_feedforward:
+        if self.settings.gravity_feedforward and self.inverse_dynamics is None:
             left, right = reference.left_foot, reference.right_foot
             if left.in_contact and right.in_contact:
                 l_xy, r_xy = left.pos_m[:2], right.pos_m[:2]

@@ -41,6 +41,7 @@ from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
 from .disturbances import Force, SceneMonitor, scene_forces
+from .inverse_dynamics import TorqueControlSettings
 from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
 from .mujoco_robot import FallCriteria, distance_outside
 from .video import VideoRecorder, VideoSettings
@@ -112,6 +113,10 @@ class WalkSettings:
         Whole-body IK weights.
     fall : FallCriteria
         When the robot counts as fallen.
+    torque_control : TorqueControlSettings or None
+        Drive the joints with an inverse-dynamics QP instead of the position servos
+        (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.torque_control`); ``RunSpec.whole_body
+        = "torque"`` sets the defaults. None on both robots by default.
     """
 
     state_feedback_gain: float = 0.0
@@ -129,6 +134,7 @@ class WalkSettings:
     observer_poles: tuple[float, float, float] | None = None
     ik: IkSettings = field(default_factory=IkSettings)
     fall: FallCriteria = field(default_factory=FallCriteria)
+    torque_control: TorqueControlSettings | None = None
 
     def __post_init__(self) -> None:
         check_fraction("WalkSettings", state_feedback_gain=self.state_feedback_gain,
@@ -280,6 +286,8 @@ def run_mujoco_spec(
     """
     _check_robot(spec.robot)
     settings = settings if settings is not None else walk_settings(spec.robot)
+    if spec.whole_body == "torque" and settings.torque_control is None:
+        settings = replace(settings, torque_control=TorqueControlSettings())
     robot_spec = load_robot(spec.robot)
     params = robot_spec.params()
     dt = spec.mpc.sampling_period_s
@@ -309,7 +317,7 @@ def run_mujoco_spec(
     loop = LoopSettings(
         control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=settings.foot_friction,
         dynamic_feedforward=settings.dynamic_feedforward,
-        disturbance_feedforward=settings.disturbance_feedforward,
+        disturbance_feedforward=settings.disturbance_feedforward, torque_control=settings.torque_control,
     )
     forces += scene_forces(scene_items)
     sim = MujocoSimulation(robot_spec, disturbances=forces, scene_items=scene_items, settings=loop)

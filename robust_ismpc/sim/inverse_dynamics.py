@@ -1,0 +1,310 @@
+r"""Torque control of a full robot: an inverse-dynamics QP that realises the gait reference.
+
+With ``LoopSettings.torque_control`` the joint actuators become torque motors and, at every
+physics step, one QP over the joint accelerations :math:`\ddot q` (floating base included) and
+the two sole wrenches :math:`W_L, W_R` (force and moment about the sole centre, world frame)
+
+.. math::
+
+    \min \sum_k w_k \lVert A_k \ddot q - b_k \rVert^2 + \epsilon \lVert x \rVert^2
+    \quad\text{s.t.}\quad
+    M_b \ddot q + h_b = J_{L,b}^T W_L + J_{R,b}^T W_R,\quad
+    J_s \ddot q + \dot J_s \dot q = -k_c v_s \ (\text{soles in contact}),
+
+:math:`W = 0` for a swinging sole, each contact wrench inside its cone (normal force
+>= ``min_normal_force_n``, friction pyramid, centre of pressure inside the sole rectangle shrunk
+by ``cop_margin``, bounded torsion) and the joint torques
+:math:`\tau = (M\ddot q + h - J_L^T W_L - J_R^T W_R)_j` within the joints' limits. The tasks are
+the CoM acceleration (reference acceleration plus PD on the measured CoM), the swinging sole's
+pose, the root orientation, and a low-weight posture task towards the whole-body IK
+configuration (which carries the arms, the torso and the leg geometry of the reference). Task
+targets are placed relative to the measured stance sole(s), so the drift of the real feet from
+the plan does not enter. The torques of the solution are sent to the motors.
+
+Unlike the position servos playing back the IK joints, this controller moves the centre of
+pressure to keep the CoM on its reference: it is the balance feedback the servo loop lacks
+(docs/robots.md, "Torque control"). The QP is dense (nv + 12 variables) and solved with DAQP.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import mujoco
+import numpy as np
+
+from ..exceptions import ParameterError, SolverError
+from ..reference import GaitReference
+from ..robots.spec import RobotSpec, foot_frame_pose, frame_body, frame_id
+from ..wbik import ActuatorMap
+
+SIDES = ("left", "right")
+
+
+@dataclass(frozen=True)
+class TorqueControlSettings:
+    """Gains and weights of the inverse-dynamics QP.
+
+    Attributes
+    ----------
+    com_kp, com_kd : float
+        PD gains of the CoM task [1/s²], [1/s] (measured CoM against the reference).
+    foot_kp, foot_kd : float
+        PD gains of the swinging sole's position and orientation [1/s²], [1/s].
+    root_kp, root_kd : float
+        PD gains of the root orientation towards the IK configuration's [1/s²], [1/s].
+    posture_kp, posture_kd : float
+        PD gains of the joints towards the IK configuration [1/s²], [1/s].
+    contact_damping : float
+        k_c: a sole in contact is asked for the acceleration ``-k_c v`` [1/s].
+    com_weight, foot_weight, root_weight, posture_weight : float
+        Task weights (the CoM and the swinging sole dominate).
+    friction : float
+        Friction coefficient of the contact pyramid.
+    cop_margin : float
+        Fraction of the sole half-length and half-width the centre of pressure may use, in (0, 1].
+    torsion_m : float
+        Largest |moment about the sole normal| per newton of normal force [m].
+    min_normal_force_n : float
+        Smallest normal force of a sole in contact [N].
+    regularisation : float
+        ε, small weight on every variable.
+    """
+
+    com_kp: float = 50.0
+    com_kd: float = 14.0
+    foot_kp: float = 100.0
+    foot_kd: float = 20.0
+    root_kp: float = 100.0
+    root_kd: float = 20.0
+    posture_kp: float = 400.0
+    posture_kd: float = 40.0
+    contact_damping: float = 10.0
+    com_weight: float = 10.0
+    foot_weight: float = 10.0
+    root_weight: float = 1.0
+    posture_weight: float = 0.1
+    friction: float = 0.7
+    cop_margin: float = 0.9
+    torsion_m: float = 0.02
+    min_normal_force_n: float = 1.0
+    regularisation: float = 1e-6
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise ParameterError(f"TorqueControlSettings.{f.name} must be a finite number >= 0, got {value!r}")
+        if self.friction <= 0:
+            raise ParameterError(f"TorqueControlSettings.friction must be > 0, got {self.friction!r}")
+        if not 0 < self.cop_margin <= 1:
+            raise ParameterError(f"TorqueControlSettings.cop_margin must be in (0, 1], got {self.cop_margin!r}")
+
+
+def _rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Rotation vector (world frame) that turns ``current`` into ``target`` (3x3 matrices)."""
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, (target @ current.T).reshape(-1))
+    vec = np.empty(3)
+    mujoco.mju_quat2Vel(vec, quat, 1.0)
+    return vec
+
+
+def _yaw_matrix(yaw_rad: float) -> np.ndarray:
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+class InverseDynamicsQp:
+    """Joint torques that realise a gait reference on a torque-controlled MuJoCo robot.
+
+    Parameters
+    ----------
+    spec : RobotSpec
+        The robot (sole frames, offsets and sizes, root body).
+    model : mujoco.MjModel
+        Simulation model whose actuators are torque motors (``ctrl`` = torque).
+    data : mujoco.MjData
+    actuators : ActuatorMap
+        Actuator ↔ joint indices (simulation and IK models).
+    settings : TorqueControlSettings
+    """
+
+    def __init__(self, spec: RobotSpec, model: mujoco.MjModel, data: mujoco.MjData, actuators: ActuatorMap,
+                 settings: TorqueControlSettings) -> None:
+        self.spec, self.model, self.data, self.actuators, self.settings = spec, model, data, actuators, settings
+        self._frame = {s: frame_id(model, spec.foot_frame_type, spec.foot_name(s), f"{s} foot") for s in SIDES}
+        self._body = {s: frame_body(model, spec.foot_frame_type, self._frame[s]) for s in SIDES}
+        self._offset = {s: spec.sole_offset_m(s) for s in SIDES}
+        self._half_length = 0.5 * spec.sole_length_m * settings.cop_margin
+        self._half_width = 0.5 * spec.sole_width_m * settings.cop_margin
+        self._root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, spec.root_body)
+        self._dof = actuators.sim_dof_index
+        self._limits = np.where(
+            model.jnt_actfrclimited[model.dof_jntid[self._dof]][:, None],
+            model.jnt_actfrcrange[model.dof_jntid[self._dof]],
+            np.array([-np.inf, np.inf]),
+        )
+        nv = model.nv
+        self._M = np.zeros((nv, nv))
+        self._jac_com_prev: np.ndarray | None = None
+        self.failures = 0
+        self.last_torques_nm = np.zeros(len(self._dof))
+        #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
+        #: force then moment about the sole centre), for inspection and tests.
+        self.last_qacc: np.ndarray | None = None
+        self.last_wrenches: dict[str, np.ndarray] = {}
+
+    def _sole(self, side: str) -> tuple[np.ndarray, np.ndarray]:
+        pos, rot = foot_frame_pose(self.model, self.data, self.spec.foot_frame_type, self._frame[side])
+        return pos + rot @ self._offset[side], rot
+
+    def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m, d = self.model, self.data
+        jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jac(m, d, jp, jr, point, self._body[side])
+        jpd, jrd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jacDot(m, d, jpd, jrd, point, self._body[side])
+        return np.vstack([jp, jr]), np.vstack([jpd, jrd])
+
+    def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
+                ik_qacc: np.ndarray) -> np.ndarray:
+        """Motor torques for the current state, shape (nu,) [N m], in actuator order.
+
+        ``ik_qpos``, ``ik_qvel``, ``ik_qacc`` are the IK reference configuration and its finite-
+        difference velocity and acceleration (IK model indexing). Runs ``mj_forward`` first.
+        If DAQP reports a failure, the previous torques are returned and ``failures`` counts it.
+
+        Raises
+        ------
+        SolverError
+            After more than 50 failed solves in the run.
+        """
+        import daqp
+
+        m, d, s = self.model, self.data, self.settings
+        mujoco.mj_forward(m, d)
+        nv = m.nv
+        n = nv + 12
+        mujoco.mj_fullM(m, d, self._M)
+        M = self._M
+        bias = d.qfrc_bias - d.qfrc_passive
+        qvel = d.qvel
+        feet = {"left": reference.left_foot, "right": reference.right_foot}
+        soles = {side: self._sole(side) for side in SIDES}
+        jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
+        stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
+        real_anchor = np.mean([soles[side][0] for side in stance], axis=0)
+        ref_anchor = np.mean([feet[side].pos_m for side in stance], axis=0)
+
+        eq_rows, eq_rhs = [], []
+        # floating-base rows of the dynamics
+        base = np.zeros((6, n))
+        base[:, :nv] = M[:6]
+        base[:, nv:nv + 6] = -jac["left"][0][:, :6].T
+        base[:, nv + 6:] = -jac["right"][0][:, :6].T
+        eq_rows.append(base)
+        eq_rhs.append(-bias[:6])
+        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
+        for side in SIDES:
+            J, Jdot = jac[side]
+            row = np.zeros((6, n))
+            row[:, :nv] = J
+            velocity = J @ qvel
+            if side in stance and feet[side].in_contact:
+                eq_rows.append(row)
+                eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
+                continue
+            target = real_anchor + (feet[side].pos_m - ref_anchor)
+            linear = s.foot_kp * (target - soles[side][0]) + s.foot_kd * (feet[side].vel_mps - velocity[:3])
+            angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
+                       - s.foot_kd * velocity[3:])
+            tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
+        # CoM (relative to the stance soles); J̇ q̇ by a backward difference of the Jacobian
+        jac_com = np.zeros((3, nv))
+        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        com = d.subtree_com[self._root]
+        com_vel = jac_com @ qvel
+        jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None else (jac_com - self._jac_com_prev) / m.opt.timestep
+        self._jac_com_prev = jac_com
+        com_target = real_anchor + (reference.com_pos_m - ref_anchor)
+        com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
+                   + s.com_kd * (reference.com_vel_mps - com_vel))
+        row = np.zeros((3, n))
+        row[:, :nv] = jac_com
+        tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
+        # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
+        root_rot = d.xmat[self._root].reshape(3, 3)
+        target_rot = np.empty(9)
+        mujoco.mju_quat2Mat(target_rot, ik_qpos[3:7])
+        omega = root_rot @ qvel[3:6]
+        row = np.zeros((3, n))
+        row[:, 3:6] = root_rot
+        tasks.append((row, s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega,
+                      s.root_weight))
+        # posture towards the IK configuration
+        act = self.actuators
+        q = d.qpos[act.sim_qpos_index]
+        v = qvel[self._dof]
+        row = np.zeros((len(self._dof), n))
+        row[np.arange(len(self._dof)), self._dof] = 1.0
+        posture = (ik_qacc[act.ik_dof_index] + s.posture_kp * (ik_qpos[act.ik_qpos_index] - q)
+                   + s.posture_kd * (ik_qvel[act.ik_dof_index] - v))
+        tasks.append((row, posture, s.posture_weight))
+
+        H = s.regularisation * np.eye(n)
+        g = np.zeros(n)
+        for A, b, w in tasks:
+            H += w * A.T @ A
+            g -= w * A.T @ b
+
+        ineq, lower, upper = [], [], []
+        for i, side in enumerate(SIDES):
+            start = nv + 6 * i
+            if not feet[side].in_contact:
+                for k in range(6):
+                    row = np.zeros(n)
+                    row[start + k] = 1.0
+                    ineq.append(row)
+                    lower.append(0.0)
+                    upper.append(0.0)
+                continue
+            R = soles[side][1]
+            force = np.zeros((3, n))
+            force[:, start:start + 3] = R.T
+            moment = np.zeros((3, n))
+            moment[:, start + 3:start + 6] = R.T
+            normal = force[2]
+            ineq.append(normal)
+            lower.append(s.min_normal_force_n)
+            upper.append(np.inf)
+            for a, limit in ((force[0], s.friction), (force[1], s.friction), (moment[0], self._half_width),
+                             (moment[1], self._half_length), (moment[2], s.torsion_m)):
+                ineq += [a - limit * normal, -a - limit * normal]
+                lower += [-np.inf, -np.inf]
+                upper += [0.0, 0.0]
+        torque_rows = np.zeros((len(self._dof), n))
+        torque_rows[:, :nv] = M[self._dof]
+        torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
+        torque_rows[:, nv + 6:] = -jac["right"][0][:, self._dof].T
+        torque_bias = bias[self._dof]
+        A = np.vstack(eq_rows + [np.array(ineq), torque_rows])
+        rhs = np.concatenate(eq_rhs)
+        upper_all = np.concatenate([rhs, np.array(upper), self._limits[:, 1] - torque_bias])
+        lower_all = np.concatenate([rhs, np.array(lower), self._limits[:, 0] - torque_bias])
+        finite = 1e9
+        upper_all = np.minimum(upper_all, finite)
+        lower_all = np.maximum(lower_all, -finite)
+        sense = np.zeros(len(upper_all), dtype=np.int32)
+        sense[:len(rhs)] = 5  # equality rows
+        x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), g, np.ascontiguousarray(A), upper_all, lower_all, sense)
+        if flag < 0:
+            self.failures += 1
+            if self.failures > 50:
+                raise SolverError(f"inverse-dynamics QP failed {self.failures} times (DAQP exit flag {flag})")
+            return self.last_torques_nm
+        self.last_torques_nm = torque_rows @ x + torque_bias
+        self.last_qacc = x[:nv].copy()
+        self.last_wrenches = {"left": x[nv:nv + 6].copy(), "right": x[nv + 6:].copy()}
+        return self.last_torques_nm
