@@ -207,6 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_sweep.add_argument("--pushed-step", type=int, default=4,
                          help="which regular step is pushed, 1 = the first (4)")
     p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
+    p_sweep.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
+                         help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
     p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
     p_sweep.add_argument("--out", required=True, help="output directory")
@@ -493,7 +495,7 @@ def cmd_sweep(args) -> int:
         impulse_max_ns=args.impulse_max, force_max_n=args.force_max, push_duration_s=args.push_duration,
         vx_mps=args.vx, post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
         iterations=args.iterations, pushed_step=args.pushed_step,
-        seed=args.seed,
+        seed=args.seed, whole_body=args.whole_body,
     )
     progress = _sweep_progress(args)
     out = Path(args.out)

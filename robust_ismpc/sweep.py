@@ -238,6 +238,8 @@ class SweepConfig:
         Which regular step is pushed (1 = the first step after the start-up double support).
     seed : int
         Base seed; every trial's seed derives from it and the trial key (:func:`trial_seed`).
+    whole_body : str
+        MuJoCo only: ``servo`` or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`).
     """
 
     robot: str = "g1"
@@ -253,6 +255,7 @@ class SweepConfig:
     iterations: int = 8
     pushed_step: int = 4
     seed: int = 0
+    whole_body: str = "servo"
 
     def __post_init__(self) -> None:
         owner = "SweepConfig"
@@ -282,6 +285,14 @@ class SweepConfig:
             raise ParameterError(f"{owner}.pushed_step must be an integer >= 1, got {self.pushed_step!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"{owner}.seed must be an integer >= 0, got {self.seed!r}")
+        from .runner import WHOLE_BODY_CONTROLS
+
+        if self.whole_body not in WHOLE_BODY_CONTROLS:
+            raise ParameterError(
+                f"{owner}.whole_body must be one of {', '.join(WHOLE_BODY_CONTROLS)}, got {self.whole_body!r}"
+            )
+        if self.whole_body != "servo" and self.sim != "mujoco":
+            raise ParameterError(f"{owner}: whole-body control {self.whole_body!r} needs the mujoco simulator")
 
     # -----------------------------------------------------------------------------------------
     @property
@@ -414,6 +425,7 @@ class Trial:
     push_duration_s: float
     duration_s: float
     seed: int
+    whole_body: str = "servo"
 
     def force_components(self) -> tuple[float, float]:
         """World-frame force (fx, fy) [N] of the push."""
@@ -452,7 +464,7 @@ def run_trial(trial: Trial) -> TrialResult:
     start = time.perf_counter()
     spec = RunSpec(
         robot=trial.robot, sim=trial.sim, modules=trial.modules, command=WalkCommand(trial.vx_mps, 0.0, 0.0),
-        duration_s=trial.duration_s, forces=trial.forces(), seed=trial.seed,
+        duration_s=trial.duration_s, forces=trial.forces(), seed=trial.seed, whole_body=trial.whole_body,
     )
     try:
         summary = run(spec).summary
@@ -954,7 +966,7 @@ def _make_trial(config: SweepConfig, key: TaskKey, b: Bisection, push_window: tu
         key=key, iteration=len(b.trials), magnitude=float(magnitude), robot=config.robot, sim=config.sim,
         modules=controller_modules(key.controller), vx_mps=float(config.vx_mps), t_push_s=t_push,
         push_duration_s=float(config.push_duration_s), duration_s=t_push + config.post_push_s,
-        seed=trial_seed(config.seed, key, magnitude),
+        seed=trial_seed(config.seed, key, magnitude), whole_body=config.whole_body,
     )
 
 
@@ -1287,7 +1299,8 @@ def format_report(
     errors = sum(r["failure"].startswith("error:") for r in rows)
     start, T_ss = frontier["pushed_step_window_s"]
     md = io.StringIO()
-    md.write(f"# Push-recovery sweep: {config.robot} on {config.sim}\n\n")
+    md.write(f"# Push-recovery sweep: {config.robot} on {config.sim}"
+             + (f" ({config.whole_body} whole-body control)" if config.sim == "mujoco" else "") + "\n\n")
     md.write(f"Command: `{command_line or '(Python API)'}`\n\n")
     if started_at is not None:
         md.write(f"Started: {started_at.isoformat(timespec='seconds')}\n\n")

@@ -119,6 +119,8 @@ BAD_CONFIGS = [
     (dict(controllers=("nominal", "magic")), "unknown controller 'magic'"),
     (dict(phases=(1.0,)), "in [0, 1)"),
     (dict(phases=()), "at least one phase"),
+    (dict(whole_body="torque"), "needs the mujoco simulator"),
+    (dict(whole_body="stiff"), "whole_body must be one of servo, torque"),
 ]
 
 
