@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import daqp
 import mujoco
 import numpy as np
 
@@ -181,8 +182,6 @@ class InverseDynamicsQp:
         SolverError
             After more than 50 failed solves in the run.
         """
-        import daqp
-
         m, d, s = self.model, self.data, self.settings
         mujoco.mj_forward(m, d)
         nv = m.nv
