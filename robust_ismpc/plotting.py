@@ -143,7 +143,10 @@ def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     axes.append(fig.add_subplot(grid[2], sharex=axes[1]))
     axes.append(fig.add_subplot(grid[3], sharex=axes[1]))
     meta = trace.meta
-    _draw_run(axes, trace, title or f"{meta.get('robot')} / {meta.get('sim')} / {meta.get('controller')}")
+    sim = meta.get("sim")
+    if sim == "mujoco" and meta.get("whole_body", "servo") != "servo":
+        sim = f"{sim} ({meta['whole_body']} control)"
+    _draw_run(axes, trace, title or f"{meta.get('robot')} / {sim} / {meta.get('controller')}")
     return _finish(plt, fig, path)
 
 
