@@ -52,7 +52,11 @@ class TorqueControlSettings:
     com_kp, com_kd : float
         PD gains of the CoM task [1/s²], [1/s] (measured CoM against the reference).
     foot_kp, foot_kd : float
-        PD gains of the swinging sole's position and orientation [1/s²], [1/s].
+        PD gains of the swinging sole's position and orientation [1/s²], [1/s]; the sole's
+        reference acceleration (a finite difference of the reference velocities of successive
+        control ticks) is fed forward. With 100 /s² and 20 /s and no feedforward every G1 foot
+        landed about 2 cm too far forward (41 cm after a 20 s walk at 0.2 m/s); now 5 cm behind
+        after 20 s.
     root_kp, root_kd : float
         PD gains of the root orientation towards the IK configuration's [1/s²], [1/s].
     posture_kp, posture_kd : float
@@ -75,8 +79,8 @@ class TorqueControlSettings:
 
     com_kp: float = 50.0
     com_kd: float = 14.0
-    foot_kp: float = 100.0
-    foot_kd: float = 20.0
+    foot_kp: float = 400.0
+    foot_kd: float = 40.0
     root_kp: float = 100.0
     root_kd: float = 20.0
     posture_kp: float = 400.0
@@ -150,6 +154,9 @@ class InverseDynamicsQp:
         nv = model.nv
         self._M = np.zeros((nv, nv))
         self._jac_com_prev: np.ndarray | None = None
+        # reference sole velocities of the previous control tick, for the swing acceleration
+        self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
+        self._foot_acc = {side: np.zeros(3) for side in SIDES}
         self.failures = 0
         self.last_torques_nm = np.zeros(len(self._dof))
         #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
@@ -191,6 +198,11 @@ class InverseDynamicsQp:
         bias = d.qfrc_bias - d.qfrc_passive
         qvel = d.qvel
         feet = {"left": reference.left_foot, "right": reference.right_foot}
+        if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
+            if self._foot_ref is not None and reference.t_s > self._foot_ref[0]:
+                dt = reference.t_s - self._foot_ref[0]
+                self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
+            self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
         soles = {side: self._sole(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
@@ -216,7 +228,8 @@ class InverseDynamicsQp:
                 eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
                 continue
             target = real_anchor + (feet[side].pos_m - ref_anchor)
-            linear = s.foot_kp * (target - soles[side][0]) + s.foot_kd * (feet[side].vel_mps - velocity[:3])
+            linear = (self._foot_acc[side] + s.foot_kp * (target - soles[side][0])
+                      + s.foot_kd * (feet[side].vel_mps - velocity[:3]))
             angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
                        - s.foot_kd * velocity[3:])
             tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
