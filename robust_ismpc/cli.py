@@ -91,9 +91,10 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--out", required=True, help="output directory (summary.json, gait.png, trace.npz)")
     p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     p.add_argument("--video", action="store_true", help="mujoco only: also write an mp4 (offscreen rendering)")
-    p.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                   help="mujoco only: servo (position servos play back the whole-body IK, default) or torque "
-                        "(an inverse-dynamics QP drives the joints; see docs/robots.md)")
+    p.add_argument("--whole-body", default=None, choices=("servo", "torque"),
+                   help="mujoco only: servo (position servos play back the whole-body IK; the default, except "
+                        "for scenarios that name their own) or torque (an inverse-dynamics QP drives the joints; "
+                        "see docs/robots.md)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -259,7 +260,7 @@ def _spec(args, modules: tuple[str, ...]):
     return RunSpec(
         robot=args.robot, sim=args.sim, modules=modules,
         command=WalkCommand(args.vx, args.vy, args.omega), duration_s=args.duration,
-        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body,
+        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body or "servo",
     )
 
 
