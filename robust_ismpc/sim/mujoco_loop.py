@@ -21,6 +21,10 @@ configurations) and the servo targets get ``kd q̇_ref / kp`` added, so that the
 0.015 rad, stance-foot tilt 5-10° → below 1°). The IK reference must then be smooth: a CoM
 target that jumps every tick with the measurement (``ComStabilizer``) turns the finite-difference
 accelerations into a positive feedback and the robot falls within 0.3 s.
+
+With ``LoopSettings.torque_control`` the actuators of a copy of the model become torque motors,
+driven at every physics step by an inverse-dynamics QP that tracks the reference with force
+feedback (:mod:`robust_ismpc.sim.inverse_dynamics`); the IK configuration is its posture target.
 """
 
 from __future__ import annotations
