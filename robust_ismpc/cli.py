@@ -147,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
     p_soak.add_argument("--modules", default="observer,restriction,timing",
                         help="controller modules (default: all three, the robust controller)")
+    p_soak.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
+                        help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
 
@@ -397,7 +399,8 @@ def cmd_soak(args) -> int:
     from .soak import SoakSpec, run_soak
 
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
-                    vx_mps=args.vx, seed=args.seed, modules=parse_modules("robust", args.modules))
+                    vx_mps=args.vx, seed=args.seed, modules=parse_modules("robust", args.modules),
+                    whole_body=args.whole_body)
     out = _prepare_out(args.out, args.overwrite)
     args.duration = spec.duration_s
     args.quiet = False

@@ -51,6 +51,8 @@ class SoakSpec:
     seed : int
     modules : tuple of str
         Controller modules (default: all three, the robust controller).
+    whole_body : str
+        MuJoCo only: ``servo`` (default) or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`).
     """
 
     robot: str = "g1"
@@ -61,9 +63,11 @@ class SoakSpec:
     vx_mps: float | None = None
     seed: int = 0
     modules: tuple[str, ...] = MODULES
+    whole_body: str = "servo"
 
     def __post_init__(self) -> None:
         robot_params(self.robot)
+        RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body)  # validates both
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"soak duration must be > 0 s, got {self.duration_s!r}")
         lo, hi = self.push_interval_s
@@ -113,7 +117,7 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
             progress(t_s)
 
     run_spec = RunSpec(robot=spec.robot, sim=spec.sim, modules=tuple(spec.modules), command=WalkCommand(spec.vx_mps),
-                       duration_s=spec.duration_s, forces=pushes, seed=spec.seed)
+                       duration_s=spec.duration_s, forces=pushes, seed=spec.seed, whole_body=spec.whole_body)
     start = time.perf_counter()
     result = run(run_spec, progress=on_progress)
     wall = time.perf_counter() - start
@@ -122,6 +126,7 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
     report = {
         "robot": spec.robot,
         "sim": spec.sim,
+        "whole_body": spec.whole_body,
         "seed": spec.seed,
         "vx_mps": spec.vx_mps,
         "modules": list(spec.modules),

@@ -30,6 +30,8 @@ def test_bad_soak_spec():
         SoakSpec(duration_s=0.0)
     with pytest.raises(ParameterError):
         SoakSpec(push_interval_s=(3.0, 1.0))
+    with pytest.raises(ParameterError, match="needs the mujoco simulator"):
+        SoakSpec(sim="lip", whole_body="torque")
 
 
 @pytest.mark.slow
