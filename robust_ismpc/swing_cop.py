@@ -22,6 +22,11 @@ from .footsteps import FootstepPlan
 from .swing import SwingState
 
 
+def _rest_to_rest(u: np.ndarray, T_s: np.ndarray | float) -> np.ndarray:
+    """Acceleration per metre of a rest-to-rest quintic of duration ``T_s`` at phase ``u`` [1/s²]."""
+    return (60.0 * u - 180.0 * u * u + 120.0 * u * u * u) / T_s**2
+
+
 def quintic_acceleration(
     p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, T_s: float, tau_s: np.ndarray
 ) -> np.ndarray:
@@ -44,7 +49,7 @@ def quintic_acceleration(
     u = np.asarray(tau_s, dtype=float) / T
     u2, u3 = u * u, u * u * u
     # The quintic's acceleration, written on the three boundary terms (u = τ / T).
-    by_displacement = (60.0 * u - 180.0 * u2 + 120.0 * u3) / T**2
+    by_displacement = _rest_to_rest(u, T)
     by_velocity = (-36.0 * u + 96.0 * u2 - 60.0 * u3) / T
     by_acceleration = 1.0 - 9.0 * u + 18.0 * u2 - 10.0 * u3
     acc = (np.outer(by_displacement, np.asarray(p1, float) - p0) + np.outer(by_velocity, v0)
@@ -83,8 +88,7 @@ def _swing_acceleration_and_step(
         if first.any():
             lift[first] = np.array([feet[int(side)].pos_m[:2] for side in plan.side[jl[first]]])
         ul, T = u[later], duration[later]
-        profile = (60.0 * ul - 180.0 * ul**2 + 120.0 * ul**3) / T**2  # rest to rest
-        acc[later] = (plan.pos_m[jl] - lift) * profile[:, None]
+        acc[later] = (plan.pos_m[jl] - lift) * _rest_to_rest(ul, T)[:, None]
     return acc, j
 
 

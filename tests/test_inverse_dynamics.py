@@ -51,7 +51,7 @@ def test_solution_obeys_the_dynamics_and_the_contact_cones(g1_spec):
         mujoco.mj_fullM(m, d, M)
         generalised = np.zeros(m.nv)
         for side, wrench in qp.last_wrenches.items():
-            point, rot = qp._sole(side)
+            point, rot = sim.robot.sole_frame(side)
             J, _ = qp._jacobians(side, point)
             generalised += J.T @ wrench
             local_f, local_m = rot.T @ wrench[:3], rot.T @ wrench[3:]

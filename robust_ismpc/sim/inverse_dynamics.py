@@ -36,9 +36,10 @@ import mujoco
 import numpy as np
 
 from ..exceptions import ParameterError, SolverError
+from ..params import check_nonnegative
 from ..reference import GaitReference
-from ..robots.spec import RobotSpec, foot_frame_pose, frame_body, frame_id
 from ..wbik import ActuatorMap
+from .mujoco_robot import MujocoRobot
 
 SIDES = ("left", "right")
 
@@ -97,10 +98,7 @@ class TorqueControlSettings:
     regularisation: float = 1e-6
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-                raise ParameterError(f"TorqueControlSettings.{f.name} must be a finite number >= 0, got {value!r}")
+        check_nonnegative("TorqueControlSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
         if self.friction <= 0:
             raise ParameterError(f"TorqueControlSettings.friction must be > 0, got {self.friction!r}")
         if not 0 < self.cop_margin <= 1:
@@ -126,25 +124,22 @@ class InverseDynamicsQp:
 
     Parameters
     ----------
-    spec : RobotSpec
-        The robot (sole frames, offsets and sizes, root body).
-    model : mujoco.MjModel
-        Simulation model whose actuators are torque motors (``ctrl`` = torque).
-    data : mujoco.MjData
+    robot : MujocoRobot
+        The robot in a simulation whose actuators are torque motors (``ctrl`` = torque): its
+        sole frames and sizes, root body, model and data.
     actuators : ActuatorMap
         Actuator ↔ joint indices (simulation and IK models).
     settings : TorqueControlSettings
     """
 
-    def __init__(self, spec: RobotSpec, model: mujoco.MjModel, data: mujoco.MjData, actuators: ActuatorMap,
-                 settings: TorqueControlSettings) -> None:
-        self.spec, self.model, self.data, self.actuators, self.settings = spec, model, data, actuators, settings
-        self._frame = {s: frame_id(model, spec.foot_frame_type, spec.foot_name(s), f"{s} foot") for s in SIDES}
-        self._body = {s: frame_body(model, spec.foot_frame_type, self._frame[s]) for s in SIDES}
-        self._offset = {s: spec.sole_offset_m(s) for s in SIDES}
-        self._half_length = 0.5 * spec.sole_length_m * settings.cop_margin
-        self._half_width = 0.5 * spec.sole_width_m * settings.cop_margin
-        self._root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, spec.root_body)
+    def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings) -> None:
+        self.robot, self.actuators, self.settings = robot, actuators, settings
+        self.model, self.data = robot.model, robot.data
+        model = self.model
+        self._body = {s: robot.foot_body_id(s) for s in SIDES}
+        self._half_length = 0.5 * robot.spec.sole_length_m * settings.cop_margin
+        self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
+        self._root = robot.root_id
         self._dof = actuators.sim_dof_index
         self._limits = np.where(
             model.jnt_actfrclimited[model.dof_jntid[self._dof]][:, None],
@@ -163,10 +158,6 @@ class InverseDynamicsQp:
         #: force then moment about the sole centre), for inspection and tests.
         self.last_qacc: np.ndarray | None = None
         self.last_wrenches: dict[str, np.ndarray] = {}
-
-    def _sole(self, side: str) -> tuple[np.ndarray, np.ndarray]:
-        pos, rot = foot_frame_pose(self.model, self.data, self.spec.foot_frame_type, self._frame[side])
-        return pos + rot @ self._offset[side], rot
 
     def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m, d = self.model, self.data
@@ -203,7 +194,7 @@ class InverseDynamicsQp:
                 dt = reference.t_s - self._foot_ref[0]
                 self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
             self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
-        soles = {side: self._sole(side) for side in SIDES}
+        soles = {side: self.robot.sole_frame(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
         real_anchor = np.mean([soles[side][0] for side in stance], axis=0)

@@ -311,9 +311,7 @@ class MujocoSimulation:
         self.scene_items = tuple(scene_items)
         self.inverse_dynamics: InverseDynamicsQp | None = None
         if self.settings.torque_control is not None:
-            self.inverse_dynamics = InverseDynamicsQp(spec, self.model, self.data, self.actuators,
-                                                      self.settings.torque_control)
-        self._reference: GaitReference | None = None
+            self.inverse_dynamics = InverseDynamicsQp(self.robot, self.actuators, self.settings.torque_control)
         self.reset()
 
     def reset(self) -> None:
@@ -324,7 +322,7 @@ class MujocoSimulation:
         self._ik_qpos = self.ik.qpos
         self._ik_qvel = np.zeros(self.ik.model.nv)
         self._ik_qacc = np.zeros(self.ik.model.nv)
-        self._reference = None
+        self._reference: GaitReference | None = None  # the last commanded reference (torque control)
         self._targets = self.actuators.targets(self.ik.qpos)
         self._target_vel = np.zeros(self.model.nu)
         self._feedforward = np.zeros(self.model.nu)

@@ -236,7 +236,7 @@ class MujocoRobot:
 
         self._foot_geoms = {}
         for side in SIDES:
-            bodies = subtree(frame_body(model, spec.foot_frame_type, self._foot_ids[side]))
+            bodies = subtree(self.foot_body_id(side))
             self._foot_geoms[side] = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in bodies])
         self._ground_geoms = np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] == 0])
         self.contact_threshold_n = (
@@ -303,14 +303,23 @@ class MujocoRobot:
         spin = np.einsum("nij,nj->ni", rot, local)
         return (orbital + spin).sum(axis=0)
 
+    def sole_frame(self, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """Sole centre (3,) [m] and sole-frame rotation (3, 3) of ``side`` in the world."""
+        pos, rot = foot_frame_pose(self.model, self.data, self.spec.foot_frame_type, self._foot_ids[side])
+        return pos + rot @ self._offsets[side], rot
+
+    def foot_body_id(self, side: str) -> int:
+        """Body that carries the sole frame of ``side`` (for Jacobians of sole points)."""
+        return frame_body(self.model, self.spec.foot_frame_type, self._foot_ids[side])
+
     def sole_pose(self, side: str) -> SolePose:
         """Sole pose of ``side`` (``"left"`` or ``"right"``) in the world."""
-        pos, rot = foot_frame_pose(self.model, self.data, self.spec.foot_frame_type, self._foot_ids[side])
-        return SolePose(pos + rot @ self._offsets[side], _yaw_of(rot))
+        pos, rot = self.sole_frame(side)
+        return SolePose(pos, _yaw_of(rot))
 
     def sole_rotation(self, side: str) -> np.ndarray:
         """Rotation matrix of the sole frame of ``side``, shape (3, 3)."""
-        return foot_frame_pose(self.model, self.data, self.spec.foot_frame_type, self._foot_ids[side])[1].copy()
+        return self.sole_frame(side)[1].copy()
 
     def root_height_m(self) -> float:
         """Height of the root body origin [m]."""
