@@ -26,6 +26,20 @@ SIMS = ("lip", "mujoco")
 WHOLE_BODY_CONTROLS = ("servo", "torque")
 
 
+def check_whole_body(owner: str, whole_body, sim: str = "mujoco") -> None:
+    """Raise ParameterError unless ``whole_body`` is one of :data:`WHOLE_BODY_CONTROLS` and,
+    when it is not ``servo``, ``sim`` is mujoco (the LIP has no joints)."""
+    if whole_body not in WHOLE_BODY_CONTROLS:
+        raise ParameterError(
+            f"{owner}.whole_body must be one of {', '.join(WHOLE_BODY_CONTROLS)} (whole-body control), "
+            f"got {whole_body!r}"
+        )
+    if whole_body != "servo" and sim != "mujoco":
+        raise ParameterError(
+            f"{owner}: whole-body control {whole_body!r} needs the mujoco simulator (the LIP has no joints)"
+        )
+
+
 def parse_modules(controller: str, modules: str | None = None) -> tuple[str, ...]:
     """Module list from ``--controller nominal|robust`` and an optional ``--modules a,b``."""
     if modules is not None:
@@ -87,12 +101,7 @@ class RunSpec:
     def __post_init__(self) -> None:
         if self.sim not in SIMS:
             raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
-        if self.whole_body not in WHOLE_BODY_CONTROLS:
-            raise ParameterError(
-                f"unknown whole-body control {self.whole_body!r}; use one of: {', '.join(WHOLE_BODY_CONTROLS)}"
-            )
-        if self.whole_body != "servo" and self.sim != "mujoco":
-            raise ParameterError(f"whole-body control {self.whole_body!r} needs the mujoco simulator (the LIP has no joints)")
+        check_whole_body("RunSpec", self.whole_body, self.sim)
         robot_params(self.robot)  # validates the name
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")

@@ -288,12 +288,9 @@ class Scenario:
             raise ParameterError(f"Scenario.expect must be 'falls' or 'deviates', got {self.expect!r}")
         if self.ball is not None and abs(self.command.omega_radps) > 0:
             raise ParameterError("Scenario: the ball placement assumes a walk without turning")
-        from .runner import WHOLE_BODY_CONTROLS
+        from .runner import check_whole_body
 
-        if self.whole_body not in WHOLE_BODY_CONTROLS:
-            raise ParameterError(
-                f"Scenario.whole_body must be one of {', '.join(WHOLE_BODY_CONTROLS)}, got {self.whole_body!r}"
-            )
+        check_whole_body("Scenario", self.whole_body)  # scenarios run on MuJoCo
 
 
 #: Criterion of ``expect="deviates"``: the robust path deviation must stay below this (it keeps

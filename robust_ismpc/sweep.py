@@ -285,14 +285,9 @@ class SweepConfig:
             raise ParameterError(f"{owner}.pushed_step must be an integer >= 1, got {self.pushed_step!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"{owner}.seed must be an integer >= 0, got {self.seed!r}")
-        from .runner import WHOLE_BODY_CONTROLS
+        from .runner import check_whole_body
 
-        if self.whole_body not in WHOLE_BODY_CONTROLS:
-            raise ParameterError(
-                f"{owner}.whole_body must be one of {', '.join(WHOLE_BODY_CONTROLS)}, got {self.whole_body!r}"
-            )
-        if self.whole_body != "servo" and self.sim != "mujoco":
-            raise ParameterError(f"{owner}: whole-body control {self.whole_body!r} needs the mujoco simulator")
+        check_whole_body(owner, self.whole_body, self.sim)
 
     # -----------------------------------------------------------------------------------------
     @property
