@@ -17,9 +17,9 @@ import time
 import numpy as np
 
 from robust_ismpc.forces import ForceWindow
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.runner import RunSpec, run
+from robust_ismpc.params import robot_params
 from robust_ismpc.planner import WalkCommand, plan_footsteps
+from robust_ismpc.runner import RunSpec, run
 
 COMBOS = [(), ("observer",), ("restriction",), ("timing",), ("observer", "timing"), ("observer", "restriction", "timing")]
 

@@ -341,6 +341,13 @@ def _compare_scenario(args) -> int:
     plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
+    envelope = comparison.get("dcm_error_envelope_m")
+    if envelope is not None:
+        (xl, xu), (yl, yu) = ([round(1e3 * v, 1) for v in row] for row in envelope)
+        first = {k: comparison[k]["first_dcm_correction_s"] for k in ("nominal", "robust")}
+        print(f"both MPCs adopt the measured DCM beyond the undisturbed walk's error envelope "
+              f"(x {xl} to {xu} mm, y {yl} to {yu} mm); first adopted at {first['nominal']} s (nominal), "
+              f"{first['robust']} s (robust)")
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "
           f"nominal {dev['nominal']} m, robust {dev['robust']} m; expected outcome: "

@@ -24,6 +24,7 @@ from .footsteps import LEFT, FootstepPlan
 from .lip import discretise
 from .mpc import IsmpcQp, MpcPlan, MpcState
 from .params import MpcParams, RobotParams, check_fraction, check_positive
+from .planner import rotation
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
@@ -65,6 +66,30 @@ class CycleInfo:
     free_footsteps: int = 0
     observer_time_s: float = 0.0
     timing_time_s: float = 0.0
+
+
+def check_dcm_error_envelope(owner: str, envelope) -> np.ndarray | None:
+    """Validate a DCM error envelope (rows sagittal, lateral; columns lower, upper [m]).
+
+    Returns the envelope as a float array of shape (2, 2), or None.
+
+    Raises
+    ------
+    ParameterError
+        Not None and not a finite (2, 2) array with lower <= upper in each row.
+    """
+    if envelope is None:
+        return None
+    try:
+        array = np.array(envelope, dtype=float)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.shape != (2, 2) or not np.all(np.isfinite(array)) or np.any(array[:, 0] > array[:, 1]):
+        raise ParameterError(
+            f"{owner}.dcm_error_envelope_m must be None or [[x_lower, x_upper], [y_lower, y_upper]] "
+            f"(finite, lower <= upper) [m], got {envelope!r}"
+        )
+    return array
 
 
 class _RateLimitedLog:
@@ -122,6 +147,16 @@ class IsmpcController:
         the planned path instead of drifting off it. In [0, 1]; default 0 (off).
     path_feedback_max_m : float, optional
         Largest move of the later footsteps per touchdown [m] (default 0.02).
+    dcm_error_envelope_m : array_like, shape (2, 2), optional
+        Envelope of the whole body's DCM tracking error in single support, for the
+        internal-model loop (gains 0): rows sagittal and lateral in the stance footstep's frame,
+        columns (lower, upper) [m]. The error is the measured DCM relative to the measured stance
+        sole minus the model's DCM relative to its stance foot (:meth:`measured_dcm_error`).
+        Whatever lies outside the envelope is taken as a disturbance the model did not see: the
+        model's CoM velocity is moved by η times the excess, so the MPC starts from a DCM moved by
+        exactly the excess (the CoM position stays). None (default): the model never adopts the
+        measurement this way. Every run records the range of the error it saw
+        (:attr:`dcm_error_range_m`), so an undisturbed run of the same walk gives the envelope.
     """
 
     def __init__(
@@ -135,6 +170,7 @@ class IsmpcController:
         replan_on_landing: bool = True,
         path_feedback_gain: float = 0.0,
         path_feedback_max_m: float = 0.02,
+        dcm_error_envelope_m=None,
     ):
         if velocity_feedback_gain is None:
             velocity_feedback_gain = state_feedback_gain
@@ -165,6 +201,7 @@ class IsmpcController:
         self.replan_on_landing = bool(replan_on_landing)
         self.path_feedback_gain = float(path_feedback_gain)
         self.path_feedback_max_m = float(path_feedback_max_m)
+        self.dcm_error_envelope_m = check_dcm_error_envelope("IsmpcController", dcm_error_envelope_m)
         self.modules: frozenset[str] = frozenset()
         self.info = CycleInfo()
         self._log = _RateLimitedLog()
@@ -220,11 +257,62 @@ class IsmpcController:
         self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
+        self.dcm_error_range_m = np.array([[np.inf, -np.inf], [np.inf, -np.inf]])
+        self.dcm_corrections = 0
+        self.first_dcm_correction_s: float | None = None
         self.info = CycleInfo()
 
     # ------------------------------------------------------------------------------------
+    def measured_dcm_error(self, t_s: float, measurement: Measurement) -> tuple[np.ndarray, np.ndarray] | None:
+        """Measured DCM relative to the measured stance sole minus the model's DCM relative to its
+        stance foot, in single support (from the third footstep on).
+
+        Returns
+        -------
+        error_m : ndarray, shape (2,)
+            World frame [m].
+        rotation_m : ndarray, shape (2, 2)
+            Axes of the model's stance foot in the world (local = rotationᵀ @ world).
+        None outside single support or without measured soles.
+        """
+        plan = self.plan
+        j = plan.step_at(t_s)
+        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9 or t_s < plan.ss_start_s[j] - 1e-9:
+            return None
+        stance = -int(plan.side[j])
+        sole = measurement.left_sole_m if stance == LEFT else measurement.right_sole_m
+        if sole is None:
+            return None
+        com = np.asarray(measurement.com_pos_m, float)[:2]
+        vel = np.asarray(measurement.com_vel_mps, float)[:2]
+        measured = com + vel / self.eta - np.asarray(sole, float)[:2]
+        foot = self.feet[stance]
+        model = self.state[0] + self.state[1] / self.eta - foot.pos_m[:2]
+        return measured - model, rotation(foot.yaw_rad)
+
+    def _adopt_measured_dcm(self, t_s: float, measurement: Measurement) -> None:
+        """Record the DCM tracking error's range; move the model by the part outside the envelope."""
+        got = self.measured_dcm_error(t_s, measurement)
+        if got is None:
+            return
+        error, R = got
+        local = R.T @ error
+        rng = self.dcm_error_range_m
+        rng[:, 0] = np.minimum(rng[:, 0], local)
+        rng[:, 1] = np.maximum(rng[:, 1], local)
+        envelope = self.dcm_error_envelope_m
+        if envelope is None:
+            return
+        excess = np.minimum(local - envelope[:, 0], 0.0) + np.maximum(local - envelope[:, 1], 0.0)
+        if np.any(excess != 0.0):
+            self.state[1] = self.state[1] + self.eta * (R @ excess)
+            self.dcm_corrections += 1
+            if self.first_dcm_correction_s is None:
+                self.first_dcm_correction_s = float(t_s)
+
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
         if measurement is not None:
+            self._adopt_measured_dcm(t_s, measurement)
             com = np.asarray(measurement.com_pos_m, float)[:2]
             vel = np.asarray(measurement.com_vel_mps, float)[:2]
             g, gv = self.state_feedback_gain, self.velocity_feedback_gain

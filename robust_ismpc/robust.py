@@ -27,7 +27,6 @@ import numpy as np
 from .controller import IsmpcController
 from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
-from .footsteps import LEFT
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
 from .observer import (
@@ -201,6 +200,11 @@ class RobustIsmpcController(IsmpcController):
         params = params if params is not None else RobustParams()
         if delta_max_mps2 is not None:
             params = replace(params, delta_max_mps2=delta_max_mps2)
+        if params.measured_dcm_band_m is not None and self.dcm_error_envelope_m is not None:
+            raise ParameterError(
+                "RobustIsmpcController: measured_dcm_band_m and dcm_error_envelope_m both add the measured DCM "
+                "error; with the envelope the model already holds it, so use one of them"
+            )
         self.robust_params = params
         mpc_p = self.mpc_params
         box = min(robot.zmp_box_x_m, robot.zmp_box_y_m)
@@ -317,19 +321,10 @@ class RobustIsmpcController(IsmpcController):
         ndarray, shape (2,), or None
             World-frame excess [m]; None outside single support or without measured soles.
         """
-        plan = self.plan
-        j = plan.step_at(t_s)
-        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9 or t_s < plan.ss_start_s[j] - 1e-9:
+        got = self.measured_dcm_error(t_s, measurement)
+        if got is None:
             return None
-        stance = -int(plan.side[j])
-        sole = measurement.left_sole_m if stance == LEFT else measurement.right_sole_m
-        if sole is None:
-            return None
-        com = np.asarray(measurement.com_pos_m, float)[:2]
-        vel = np.asarray(measurement.com_vel_mps, float)[:2]
-        measured = com + vel / self.eta - np.asarray(sole, float)[:2]
-        model = self.state[0] + self.state[1] / self.eta - self.feet[stance].pos_m[:2]
-        error = measured - model
+        error = got[0]
         band = np.asarray(self.robust_params.measured_dcm_band_m, float)
         return np.sign(error) * np.maximum(np.abs(error) - band, 0.0)
 

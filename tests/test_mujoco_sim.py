@@ -326,6 +326,8 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
     ({"state_feedback_gain": 1.5}, "state_feedback_gain"),
     ({"path_feedback_gain": -0.1}, "path_feedback_gain"),
     ({"path_feedback_gain": float("nan")}, "path_feedback_gain"),
+    ({"dcm_error_envelope_m": ((0.0, 0.01),)}, "dcm_error_envelope_m"),
+    ({"dcm_error_envelope_m": ((-0.01, 0.01), (-0.01, 0.01)), "measured_dcm_band_m": (0.01, 0.01)}, "not both"),
 ])
 def test_bad_walk_settings_raise_parameter_error(kwargs, message):
     from robust_ismpc.exceptions import ParameterError

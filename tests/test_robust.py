@@ -155,6 +155,36 @@ def test_step_timing_survives_push_that_makes_nominal_infeasible():
     assert chosen.min() < nominal_remaining - 0.1
 
 
+def _op3_ball_hit(impulse_ns: float, modules: tuple[str, ...]):
+    """OP3's LIP walking 0.15 m/s, hit forward over 10 ms when the planned time to step is 0.25 s
+    (paper-ball's hit on the reduced model, where the MPC sees the hit); returns (summary, trace)."""
+    op3 = robot_params("op3")
+    left = np.array([0.0, 0.5 * op3.foot_spacing_m])
+    plan = plan_footsteps(op3, WalkCommand(0.15), 10.0, left, -left)
+    touchdown = next(t for t in plan.touchdown_s[2:] if t >= 3.0)
+    hit_s = float(touchdown) - 0.25
+    spec = RunSpec(robot="op3", sim="lip", modules=modules, command=WalkCommand(0.15), duration_s=6.0,
+                   forces=(ForceWindow(impulse_ns / 0.01, 0.0, hit_s, hit_s + 0.01),))
+    result = run(spec)
+    return result.summary, result.trace
+
+
+def test_paper_ball_hit_on_op3_lip_straddles_the_nominal_limit():
+    """The paper's Fig. 3 mechanism on OP3's parameters. paper-ball's scaled ball delivers 0.32-0.42 N s
+    in MuJoCo (docs/scenarios.md): 0.30 N s leaves nominal IS-MPC feasible, 0.42 N s makes its QP
+    infeasible, and timing adaptation survives it by cutting the time to step from 0.25 s; at
+    0.5 N s it cuts it to the paper's 0.1 s."""
+    small, _ = _op3_ball_hit(0.30, ())
+    assert not small["fell"] and small["qp_infeasible_count"] == 0
+    for impulse_ns, shortest_s in ((0.42, 0.15), (0.50, 0.11)):
+        nominal, _ = _op3_ball_hit(impulse_ns, ())
+        assert nominal["fell"] and "infeasible" in nominal["failure"]
+        timing, trace = _op3_ball_hit(impulse_ns, ("timing",))
+        assert not timing["fell"] and timing["qp_infeasible_count"] == 0
+        chosen = trace["time_to_step_s"][trace["timing_adapted"] > 0]
+        assert chosen.size and chosen.min() <= shortest_s
+
+
 def test_push_that_does_not_threaten_feasibility_changes_nothing():
     """A small push leaves the timing untouched: the run equals the one without the module."""
     push = [ForceWindow(15.0, 0.0, PUSH_T, PUSH_T + 0.1)]
@@ -272,6 +302,74 @@ def test_measured_dcm_error_reaches_the_timing_module_only_with_a_band():
     assert adaptations == 0 and new == old
     adaptations, new, old = results[(0.005, 0.01)]
     assert adaptations == 1 and new < old - 0.05
+
+
+ENVELOPE_M = [[-0.006, 0.002], [-0.01, 0.01]]
+
+
+@pytest.mark.parametrize("omega", [0.0, 0.3])
+def test_dcm_error_envelope_adopts_exactly_the_excess_in_the_stance_foot_frame(omega):
+    """Internal-model controller (gains 0) with a DCM error envelope: an error inside it changes
+    nothing; beyond it the model's DCM moves by exactly the excess, measured in the stance
+    foot's frame (turning walk: the foot is yawed), and the CoM position stays."""
+    controller = IsmpcController(ROBOT, MpcParams(), state_feedback_gain=0.0, anchor_landed_footsteps=False,
+                                 dcm_error_envelope_m=ENVELOPE_M)
+    plan = plan_footsteps(ROBOT, WalkCommand(0.1, 0.0, omega), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+    controller.reset(plan, np.zeros(2))
+    t = _walk_open_loop_to_single_support(controller, plan, 5)
+    stance = controller.feet[-int(plan.side[5])]
+    R = np.array([[np.cos(stance.yaw_rad), -np.sin(stance.yaw_rad)], [np.sin(stance.yaw_rad), np.cos(stance.yaw_rad)]])
+    assert omega == 0.0 or abs(stance.yaw_rad) > 0.1
+    drift = np.array([0.21, -0.13])
+
+    com, dcm = controller.state[0].copy(), controller._mpc_state(t, None).dcm_m
+    inside = controller._mpc_state(t, _measurement_of_model(controller, drift, R @ [0.0015, -0.009]))
+    np.testing.assert_allclose(inside.dcm_m, dcm, atol=1e-12)
+    assert controller.dcm_corrections == 0 and controller.first_dcm_correction_s is None
+    np.testing.assert_allclose(controller.dcm_error_range_m, [[0.0015, 0.0015], [-0.009, -0.009]], atol=1e-12)
+
+    measurement = _measurement_of_model(controller, drift, R @ [0.012, -0.025])
+    beyond = controller._mpc_state(t, measurement)
+    np.testing.assert_allclose(R.T @ (beyond.dcm_m - dcm), [0.010, -0.015], atol=1e-12)
+    np.testing.assert_allclose(controller.state[0], com, atol=1e-15)
+    assert controller.dcm_corrections == 1 and controller.first_dcm_correction_s == t
+    np.testing.assert_allclose(controller.dcm_error_range_m, [[0.0015, 0.012], [-0.025, -0.009]], atol=1e-12)
+    # the model now holds the excess: the same measurement again leaves the error on the envelope
+    again = controller._mpc_state(t, measurement)
+    np.testing.assert_allclose(again.dcm_m, beyond.dcm_m, atol=1e-12)
+
+
+def test_dcm_error_envelope_lets_the_timing_module_see_a_hit():
+    """The envelope brings a forward DCM jump into the internal model, so the timing module of an
+    internal-model controller shortens the step (without it, it never sees the jump)."""
+    results = {}
+    for envelope in (None, ENVELOPE_M):
+        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), state_feedback_gain=0.0,
+                                           dcm_error_envelope_m=envelope)
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        t = _walk_open_loop_to_single_support(controller, plan, 5)
+        touchdown = plan.touchdown_s[5]
+        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.08, 0.0]))
+        results[envelope is not None] = (controller.timing_adaptations, plan.touchdown_s[5], touchdown)
+    adaptations, new, old = results[False]
+    assert adaptations == 0 and new == old
+    adaptations, new, old = results[True]
+    assert adaptations == 1 and new < old - 0.05
+
+
+@pytest.mark.parametrize("envelope", [[0.01, 0.01], [[0.01, -0.01], [-0.01, 0.01]], [[np.nan, 0.0], [0.0, 0.0]], "wide"])
+def test_bad_dcm_error_envelope_is_refused(envelope):
+    with pytest.raises(ParameterError, match="dcm_error_envelope_m"):
+        IsmpcController(ROBOT, MpcParams(), dcm_error_envelope_m=envelope)
+
+
+def test_dcm_error_envelope_and_measured_band_are_exclusive():
+    from robust_ismpc.robust import RobustParams
+
+    with pytest.raises(ParameterError, match="measured_dcm_band_m and dcm_error_envelope_m"):
+        RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), dcm_error_envelope_m=ENVELOPE_M,
+                              params=RobustParams(measured_dcm_band_m=(0.01, 0.01)))
 
 
 def test_observer_reads_the_lip_zmp_when_the_measurement_has_one():

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..controller import check_dcm_error_envelope
 from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..params import check_fraction, check_nonnegative
 from ..planner import plan_footsteps
@@ -96,6 +97,15 @@ class WalkSettings:
         Dead band (x, y) [m] of the measured DCM error that the step timing check adds to the
         MPC's DCM (:attr:`~robust_ismpc.robust.RobustParams.measured_dcm_band_m`); None: the
         timing module sees the internal model only.
+    dcm_error_envelope_m : array_like, shape (2, 2), or None
+        Envelope of the whole body's DCM tracking error beyond which the MPC's internal model
+        adopts the measured DCM (:class:`~robust_ismpc.controller.IsmpcController`
+        ``dcm_error_envelope_m``; rows sagittal, lateral; columns lower, upper [m]). It depends on
+        the walk (OP3 undisturbed, 0.15 m/s forward: sagittal -6.7 to +2.3 mm; backward -3.8 to
+        +5.9 mm; sideways several centimetres), so no robot has one by default: a scenario measures it
+        with an undisturbed run of its own walk (``summary.json["dcm_error_range_m"]``) and
+        passes it to both controllers (paper-ball, docs/scenarios.md). Not together with
+        ``measured_dcm_band_m``.
     disturbance_feedforward : bool
         Servo torque feedforward of the planned disturbance force ``m ŵ``
         (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.disturbance_feedforward`).
@@ -130,6 +140,7 @@ class WalkSettings:
     disturbance_feedforward: bool = True
     spin_corrected_zmp: bool = True
     measured_dcm_band_m: tuple[float, float] | None = None
+    dcm_error_envelope_m: tuple[tuple[float, float], tuple[float, float]] | None = None
     disturbance_average_strides: float = 0.0
     observer_poles: tuple[float, float, float] | None = None
     ik: IkSettings = field(default_factory=IkSettings)
@@ -141,6 +152,9 @@ class WalkSettings:
                        velocity_feedback_gain=self.velocity_feedback_gain, path_feedback_gain=self.path_feedback_gain)
         check_nonnegative("WalkSettings", disturbance_average_strides=self.disturbance_average_strides)
         check_dcm_band("WalkSettings", self.measured_dcm_band_m)
+        check_dcm_error_envelope("WalkSettings", self.dcm_error_envelope_m)
+        if self.measured_dcm_band_m is not None and self.dcm_error_envelope_m is not None:
+            raise ParameterError("WalkSettings: use measured_dcm_band_m or dcm_error_envelope_m, not both")
 
 
 #: Observer poles on the full robots: the reference code's (0.6, 0.7, 0.8), slower than the LIP
@@ -194,6 +208,18 @@ class TickTimes:
             "record": round(1e3 * self.record_s / n, 4),
             "render": round(1e3 * self.render_s / n, 4),
         }
+
+
+def dcm_error_range(controller) -> list[list[float]] | None:
+    """Range of the DCM tracking error the controller saw in single support, as
+    ``[[x_lower, x_upper], [y_lower, y_upper]]`` [m] in the stance footstep's frame, rounded
+    outwards to the micrometre so that it still holds every error seen (None: no single support
+    with measured soles)."""
+    rng = controller.dcm_error_range_m
+    if not np.all(np.isfinite(rng)):
+        return None
+    micrometres = np.column_stack([np.floor(rng[:, 0] * 1e6), np.ceil(rng[:, 1] * 1e6)])
+    return (micrometres / 1e6).tolist()
 
 
 def walk_settings(robot: str) -> WalkSettings:
@@ -309,7 +335,8 @@ def run_mujoco_spec(
         params, spec, state_feedback_gain=settings.state_feedback_gain,
         velocity_feedback_gain=settings.velocity_feedback_gain,
         anchor_landed_footsteps=settings.anchor_landed_footsteps,
-        path_feedback_gain=settings.path_feedback_gain, **options,
+        path_feedback_gain=settings.path_feedback_gain, dcm_error_envelope_m=settings.dcm_error_envelope_m,
+        **options,
     )
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
 
@@ -412,6 +439,11 @@ def run_mujoco_spec(
     summary["time_per_tick_ms"] = times.per_tick_ms(ticks)
     summary["cop_outside_s"] = round(outside_ticks * dt, 4)
     summary["state_feedback_gain"] = settings.state_feedback_gain
+    summary["dcm_error_range_m"] = dcm_error_range(controller)
+    summary["dcm_error_envelope_m"] = (None if controller.dcm_error_envelope_m is None
+                                       else controller.dcm_error_envelope_m.round(6).tolist())
+    summary["dcm_corrections"] = controller.dcm_corrections
+    summary["first_dcm_correction_s"] = controller.first_dcm_correction_s
     if monitor is not None:
         summary["scene"] = monitor.summary()
     if video is not None:
