@@ -295,6 +295,8 @@ class Scenario:
                 raise ParameterError(f"Scenario.forces must hold ScaledForce, got {f!r}")
         if self.expect not in ("falls", "deviates"):
             raise ParameterError(f"Scenario.expect must be 'falls' or 'deviates', got {self.expect!r}")
+        if not isinstance(self.measured_dcm, bool):
+            raise ParameterError(f"Scenario.measured_dcm must be True or False, got {self.measured_dcm!r}")
         if self.ball is not None and abs(self.command.omega_radps) > 0:
             raise ParameterError("Scenario: the ball placement assumes a walk without turning")
         from .runner import check_whole_body

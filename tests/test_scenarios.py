@@ -58,6 +58,9 @@ def test_invalid_definitions_raise() -> None:
     with pytest.raises(ParameterError, match="whole_body"):
         Scenario(name="x", summary="", paper="", robot="op3", command=get_scenario("paper-bag").command,
                  duration_s=1.0, robust_modules=("timing",), whole_body="hydraulic")
+    with pytest.raises(ParameterError, match="measured_dcm"):
+        Scenario(name="x", summary="", paper="", robot="op3", command=get_scenario("paper-bag").command,
+                 duration_s=1.0, robust_modules=("timing",), measured_dcm="yes")
 
 
 def test_masses_and_forces_scale_with_robot_mass() -> None:
