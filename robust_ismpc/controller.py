@@ -275,6 +275,8 @@ class IsmpcController:
             Axes of the model's stance foot in the world (local = rotationᵀ @ world).
         None outside single support or without measured soles.
         """
+        if measurement.left_sole_m is None and measurement.right_sole_m is None:
+            return None  # the LIP loop: nothing to refer the error to, every tick
         plan = self.plan
         j = plan.step_at(t_s)
         if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9 or t_s < plan.ss_start_s[j] - 1e-9:
