@@ -221,8 +221,7 @@ def _compare_scenario(args) -> int:
     comparison = result.comparison
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
-    names = [f"{labels[label]} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" if label == "nominal" else labels[label]
-             for label, r in result.results.items()]
+    names = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
     plot_comparison(traces, names, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
@@ -325,7 +324,6 @@ def cmd_soak(args) -> int:
     for line in warnings:
         _warn(line)
     args.duration = spec.duration_s
-    args.quiet = False
     report, result = run_soak(spec, progress=_progress(args, "soak"))
     report["warnings"] = warnings
     _end_progress(args)

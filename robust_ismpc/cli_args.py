@@ -164,6 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    p_soak.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
     p_cal = sub.add_parser(
         "calibrate", help="measure a robot's swing-leg CoP gain (the [gait] swing_cop_gain_s2)",
