@@ -133,7 +133,8 @@ def _write_run(result, out: Path, args=None, title: str | None = None) -> None:
 
 
 def _one_line(summary: dict, label: str | None = None) -> str:
-    state = f"FELL ({summary['failure']})" if summary["fell"] else (
+    failed = "SIMULATION FAILED" if str(summary["failure"]).startswith("simulator_unstable") else "FELL"
+    state = f"{failed} ({summary['failure']})" if summary["fell"] else (
         "INTERRUPTED" if summary["failure"] == "interrupted" else "walked")
     return (
         f"{summary['robot']}/{summary['sim']}/{label or summary['controller']}: {state}; "

@@ -116,9 +116,8 @@ def check_modules_flags(modules: tuple[str, ...], modules_text: str | None, delt
                         modules_flag: str = "--modules") -> None:
     """Refuse an empty module list and a ``--delta-max`` that no restriction module uses."""
     if modules_text is not None and not modules:
-        raise ParameterError(
-            f"{modules_flag} is empty; name some of observer,restriction,timing (or use --controller nominal)"
-        )
+        instead = "use --controller nominal" if modules_flag == "--modules" else f"drop {modules_flag} for all three"
+        raise ParameterError(f"{modules_flag} is empty; name some of observer,restriction,timing (or {instead})")
     if delta_max is not None and "restriction" not in modules:
         raise ParameterError(
             "--delta-max sets the ZMP restriction's bound and this controller has no restriction module; "
