@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .controller import IsmpcController
+from .exceptions import ParameterError
 from .forces import ForceWindow
 from .io import atomic_write_bytes, atomic_write_json
 from .lip_sim import run_lip
@@ -179,6 +180,46 @@ def bench_mujoco(robot_name: str = "g1", duration_s: float = 5.0) -> dict:
     summary = run(RunSpec(robot=robot_name, sim="mujoco", command=WalkCommand(0.2), duration_s=duration_s)).summary
     return {"robot": robot_name, "duration_s": duration_s, "fell": summary["fell"],
             "realtime_factor": summary.get("realtime_factor"), "cycle_ms": summary["cycle_ms"]}
+
+
+#: Solvers compared by default (those of them that are installed).
+DEFAULT_SOLVERS = ("daqp", "osqp", "proxqp", "quadprog")
+#: Largest --cycles and --horizons accepted (a horizon of C samples builds a QP of about 2 C variables).
+MAX_CYCLES = 100_000
+MAX_HORIZON = 1000
+
+
+def installed_solvers() -> list[str]:
+    """``daqp`` and the qpsolvers backends installed."""
+    import qpsolvers
+
+    return ["daqp", *sorted(s for s in qpsolvers.available_solvers if s != "daqp")]
+
+
+def check_bench_args(horizons_text: str, cycles: int, solvers_text: str | None) -> tuple[list[int], list[str]]:
+    """Horizons and solvers of ``ismpc bench`` from its flags; ParameterError naming the flag.
+
+    ``solvers_text`` None means those of :data:`DEFAULT_SOLVERS` that are installed.
+    """
+    try:
+        horizons = [int(h) for h in horizons_text.split(",")]
+    except ValueError:
+        raise ParameterError(f"--horizons must be comma-separated integers, got {horizons_text!r}") from None
+    if any(h < 2 or h > MAX_HORIZON for h in horizons):
+        raise ParameterError(f"--horizons must be between 2 and {MAX_HORIZON} samples, got {horizons_text!r}")
+    if not 10 <= cycles <= MAX_CYCLES:
+        raise ParameterError(f"--cycles must be between 10 and {MAX_CYCLES}, got {cycles}")
+    installed = installed_solvers()
+    if solvers_text is None:
+        return horizons, [s for s in DEFAULT_SOLVERS if s in installed]
+    solvers = [s.strip() for s in solvers_text.split(",") if s.strip()]
+    unknown = [s for s in solvers if s not in installed]
+    if not solvers or unknown:
+        raise ParameterError(
+            f"--solvers {solvers_text!r}: {'no solver named' if not solvers else f'{unknown[0]!r} is not an installed solver'}"
+            f"; installed: {', '.join(installed)} (more with pip install 'robust-ismpc[solvers]')"
+        )
+    return horizons, solvers
 
 
 def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str], mujoco: bool = False) -> dict:

@@ -6,307 +6,181 @@ Exit status: 0 success (also when the robot fell: the outcome is in ``summary.js
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
+from .cli_args import build_parser, flag_names
 from .exceptions import IsmpcError, ParameterError
 
-EPILOG_FORCES = """force syntax:
-  --force FX,FY            constant force [N] on the CoM (LIP) / torso (MuJoCo) for the whole run
-  --force FX,FY@T0:T1      force active from T0 to T1 [s] (T1 empty = until the end)
-  --push  FX,FY@T:DUR      push of FX,FY [N] starting at T lasting DUR [s]
-"""
+__all__ = ["build_parser", "main"]
 
 
-class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line and exit status 2."""
 
-    def error(self, message: str) -> None:  # type: ignore[override]
-        sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-        sys.exit(2)
+def _warn(message: str) -> None:
+    sys.stderr.write(f"ismpc: warning: {message}\n")
 
 
-def _positive_float(name: str):
-    def convert(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"{name} must be a finite number > 0, got {text!r}")
-        return value
+def _open_out(args, require_empty: bool = True) -> Path:
+    """Check, create and lock ``--out`` (released when the command ends, in :func:`main`)."""
+    from .outputs import open_output_dir
 
-    return convert
+    args.out_dir = open_output_dir(args.out, getattr(args, "overwrite", False), require_empty=require_empty)
+    return args.out_dir.path
 
 
-def _finite_float(name: str):
-    def convert(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{name} must be finite, got {text!r}")
-        return value
-
-    return convert
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}")
-    return value
-
-
-def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True) -> None:
-    from .params import ROBOT_DEFAULTS
-
-    p.add_argument("--sim", default="lip", help="simulator: lip (reduced model) or mujoco (full robot); default lip")
-    p.add_argument("--robot", default="g1",
-                   help=f"robot: {', '.join(sorted(ROBOT_DEFAULTS))} (mujoco: g1, op3); default g1")
-    if with_controller:
-        p.add_argument("--controller", default="nominal",
-                       help="nominal (IS-MPC) or robust (observer + restriction + timing); default nominal")
-        p.add_argument("--modules", default=None,
-                       help="comma-separated subset of observer,restriction,timing (overrides --controller)")
-    p.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
-    p.add_argument("--vy", type=_finite_float("vy"), default=0.0, help="lateral velocity command [m/s] (0)")
-    p.add_argument("--omega", type=_finite_float("omega"), default=0.0, help="turning rate command [rad/s] (0)")
-    p.add_argument("--duration", type=_positive_float("duration"), default=10.0, help="simulated time [s] (10)")
-    p.add_argument("--force", action="append", default=[], metavar="FX,FY[@T0:T1]",
-                   help="external force [N], repeatable (see below)")
-    p.add_argument("--push", action="append", default=[], metavar="FX,FY@T:DUR",
-                   help="impulsive push [N] for DUR seconds, repeatable")
-    p.add_argument("--delta-max", type=_finite_float("delta-max"), default=None,
-                   help="deviation bound Δmax for the ZMP restriction [m/s²] (default: module default)")
-    p.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
-    p.add_argument("--out", required=True, help="output directory (summary.json, gait.png, trace.npz)")
-    p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
-    p.add_argument("--video", action="store_true", help="mujoco only: also write an mp4 (offscreen rendering)")
-    p.add_argument("--whole-body", default=None, choices=("servo", "torque"),
-                   help="mujoco only: servo (position servos play back the whole-body IK; the default, except "
-                        "for scenarios that name their own) or torque (an inverse-dynamics QP drives the joints; "
-                        "see docs/robots.md)")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
-        prog="ismpc",
-        description="Robust IS-MPC gait generation: run humanoid walks on a LIP or in MuJoCo, compare "
-        "nominal and robust controllers, benchmark the MPC.",
-    )
-    parser.add_argument("--verbose", action="store_true", help="log controller warnings")
-    sub = parser.add_subparsers(dest="command", parser_class=_Parser)
-
-    p_run = sub.add_parser(
-        "run", help="one closed-loop walk", epilog=EPILOG_FORCES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="Run one closed-loop walk and write OUT/summary.json, OUT/gait.png and OUT/trace.npz.",
-    )
-    _add_run_arguments(p_run)
-
-    p_cmp = sub.add_parser(
-        "compare", help="nominal vs robust on the same disturbances", epilog=EPILOG_FORCES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="Run the nominal and the robust controller on identical disturbances and write "
-        "OUT/nominal/, OUT/robust/, OUT/comparison.json and OUT/comparison.png.",
-    )
-    p_cmp.add_argument("scenario", nargs="?", default=None,
-                       help="optional named scenario: paper-bag, paper-ball, paper-push (see `ismpc scenarios`). "
-                       "A scenario fixes robot, simulator (mujoco), command, duration and disturbances; --duration "
-                       "overrides its duration, --force/--push ADD forces (unscaled, on the torso) to its own, "
-                       "--seed varies its push time and magnitude (seed 0 = the paper's values)")
-    _add_run_arguments(p_cmp, with_controller=False)
-    p_cmp.add_argument("--robust-modules", default=None,
-                       help="modules of the robust run (default: all three, or the scenario's)")
-    # Defaults resolved in cmd_compare, so that a scenario can tell "not given" from a value.
-    p_cmp.set_defaults(sim=None, robot=None, vx=None, vy=None, omega=None, duration=None)
-
-    sub.add_parser("scenarios", help="list the named scenarios of `ismpc compare`",
-                   description="List the named scenarios (the paper's experiments) with one line each.")
-
-    p_soak = sub.add_parser("soak", help="long walk with random pushes inside the robust envelope",
-                            description="Walk for a long time with the robust controller under random 0.1 s "
-                            "pushes (seeded) and report falls, solver failures and memory (OUT/soak.json).")
-    p_soak.add_argument("--sim", default="lip", help="lip or mujoco (default lip)")
-    p_soak.add_argument("--robot", default="g1", help="robot (g1)")
-    p_soak.add_argument("--minutes", type=_positive_float("minutes"), default=10.0, help="simulated minutes (10)")
-    p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
-                        help="largest push [N] (default 8 N scaled by robot mass)")
-    p_soak.add_argument("--vx", type=_finite_float("vx"), default=None,
-                        help="forward velocity command [m/s] (0.2 on the LIP, 0.1 in MuJoCo)")
-    p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
-    p_soak.add_argument("--modules", default="observer,restriction,timing",
-                        help="controller modules (default: all three, the robust controller)")
-    p_soak.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                        help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
-    p_soak.add_argument("--out", required=True, help="output directory")
-    p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
-
-    p_cal = sub.add_parser(
-        "calibrate", help="measure a robot's swing-leg CoP gain (the [gait] swing_cop_gain_s2)",
-        description="Walk the robot's reference without physics (whole-body IK and the inverse dynamics of its "
-        "motion) and fit κ, the forward shift of the centre of pressure per m/s² of forward swing-foot "
-        "acceleration (docs/robots.md). Writes OUT/calibration.json and OUT/calibration.png.")
-    p_cal.add_argument("--robot", default="g1", help="built-in robot (g1, op3) or a robot TOML file (g1)")
-    p_cal.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
-    p_cal.add_argument("--duration", type=_positive_float("duration"), default=8.0, help="walk length [s] (8)")
-    p_cal.add_argument("--out", required=True, help="output directory")
-    p_cal.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
-
-    p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
-                             description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
-    p_bench.add_argument("--robot", default="g1", help="robot parameters (g1)")
-    p_bench.add_argument("--horizons", default="50,100,200", help="control-horizon samples, comma-separated")
-    p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
-    p_bench.add_argument("--solvers", default="daqp,osqp,proxqp,quadprog",
-                         help="solvers to compare on the same QPs (those installed)")
-    p_bench.add_argument("--mujoco", action="store_true", help="also measure the MuJoCo G1 closed loop's real-time factor")
-    p_bench.add_argument("--out", default=None, help="write bench.json (and bench.md) into this directory")
-
-    p_sweep = sub.add_parser(
-        "sweep", help="push-recovery frontier: largest survived push per controller, direction and phase",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        description="For each controller, push direction and gait phase, find by bisection the largest impulse "
-        "(and optionally constant force) the robot survives. Writes OUT/runs.csv (one row per trial, appended as "
-        "trials finish), OUT/frontier.json, OUT/frontier_polar.png, OUT/frontier_phase.png and OUT/report.md. "
-        "Rerunning the same command resumes an interrupted sweep.",
-        epilog="examples:\n  ismpc sweep --controllers nominal,timing,robust --direction 0:360:8 --phase 0:1:4 "
-        "--impulse-max 20 --out sweeps/g1\n  ismpc sweep --controllers robust --direction 90 --phase 0.5 "
-        "--impulse-max 10 --force-max 100 --iterations 6 --out sweeps/g1-left",
-    )
-    p_sweep.add_argument("--sim", default="lip", help="simulator: lip or mujoco (default lip)")
-    p_sweep.add_argument("--robot", default="g1", help="robot (g1)")
-    p_sweep.add_argument("--controllers", default="nominal,robust",
-                         help="comma-separated: nominal, robust, observer, restriction, timing, or modules joined "
-                         "by '+' (default nominal,robust)")
-    p_sweep.add_argument("--direction", default="0,90,180,270",
-                         help="push directions [deg], 0 = forward, 90 = left: a list or START:STOP:STEPS "
-                         "(default 0,90,180,270)")
-    p_sweep.add_argument("--phase", default="0:1:4",
-                         help="phases of the pushed step's single support in [0, 1): START:STOP:STEPS evenly "
-                         "spaced in [START, STOP), or a list (default 0:1:4 = 0, 0.25, 0.5, 0.75)")
-    p_sweep.add_argument("--impulse-max", type=_finite_float("impulse-max"), required=True,
-                         help="upper end of the impulse bisection [N s]")
-    p_sweep.add_argument("--force-max", type=_finite_float("force-max"), default=None,
-                         help="also bisect a constant force in [0, FORCE_MAX] N, on from the push instant")
-    p_sweep.add_argument("--push-duration", type=_finite_float("push-duration"), default=0.1,
-                         help="duration of the impulsive push [s] (0.1)")
-    p_sweep.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
-    p_sweep.add_argument("--duration", type=_finite_float("duration"), default=None,
-                         help="simulated time after the push starts [s] (3 on the LIP, 6 in MuJoCo, where the "
-                         "full robot can fall seconds after a push)")
-    p_sweep.add_argument("--iterations", type=int, default=8,
-                         help="bisection steps after the trial at the maximum; resolution = max / 2^N (8)")
-    p_sweep.add_argument("--pushed-step", type=int, default=4,
-                         help="which regular step is pushed, 1 = the first (4)")
-    p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
-    p_sweep.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                         help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
-    p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
-    p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
-    p_sweep.add_argument("--out", required=True, help="output directory")
-    p_sweep.add_argument("--overwrite", action="store_true",
-                         help="discard an earlier sweep in --out (without it, the same sweep resumes and a "
-                         "different one is refused)")
-    p_sweep.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    return parser
-
-
-def _prepare_out(path: str, overwrite: bool) -> Path:
-    out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise ParameterError(f"--out {path!r} exists and is not a directory")
-    if out.exists() and any(out.iterdir()) and not overwrite:
-        raise ParameterError(f"--out {path!r} exists and is not empty; pass --overwrite to write into it")
-    out.mkdir(parents=True, exist_ok=True)
-    return out
-
-
-def _forces(args) -> tuple:
+def _forces(args) -> list:
+    """(flag, text, ForceWindow) of every ``--force`` and ``--push``."""
     from .forces import parse_force, parse_push
 
-    return tuple(parse_force(s) for s in args.force) + tuple(parse_push(s) for s in args.push)
+    return ([("--force", text, parse_force(text)) for text in args.force]
+            + [("--push", text, parse_push(text)) for text in args.push])
 
 
 def _progress(args, label: str):
-    if args.quiet or not sys.stderr.isatty():
-        return None
+    """Progress callback of a run: honours Ctrl-C at a tick boundary; prints on stderr (a line
+    that rewrites itself on a terminal, about every 10 % of the run otherwise) unless --quiet."""
+    interrupts = args.interrupts
+    tty = sys.stderr.isatty()
     start = time.perf_counter()
+    every = max(1.0, args.duration / 10)
+    state = {"next": 0.0}
 
     def report(t_s: float) -> None:
-        sys.stderr.write(f"\r{label}: t = {t_s:6.1f} / {args.duration:.1f} s  ({time.perf_counter() - start:5.1f} s wall)")
+        interrupts.check()
+        if args.quiet:
+            return
+        text = f"{label}: t = {t_s:6.1f} / {args.duration:.1f} s  ({time.perf_counter() - start:5.1f} s wall)"
+        if tty:
+            sys.stderr.write("\r" + text)
+        elif t_s + 1e-9 >= state["next"]:
+            state["next"] += every
+            sys.stderr.write(text + "\n")
         sys.stderr.flush()
 
     return report
 
 
 def _end_progress(args) -> None:
-    if not args.quiet:
+    if not args.quiet and sys.stderr.isatty():
         sys.stderr.write("\n")
 
 
+def _require(args, plot: bool = True) -> None:
+    """Name the extra to install before anything runs."""
+    from .inputs import require_extra
+
+    command = f"ismpc {args.command}"
+    if plot:
+        require_extra("plot", f"{command} (its figures)")
+    if getattr(args, "sim", None) == "mujoco" or getattr(args, "scenario", None):
+        require_extra("sim", f"{command} --sim mujoco")
+    if getattr(args, "video", False):
+        require_extra("video", f"{command} --video")
+
+
+def _check_sim_flags(args) -> None:
+    from .inputs import check_whole_body_flag
+
+    check_whole_body_flag(args.whole_body, args.sim)
+    if args.sim == "mujoco":
+        from .sim.run import _check_robot
+
+        _check_robot(args.robot)
+    for flag in ("video", "viewer"):
+        if getattr(args, flag, False) and args.sim != "mujoco":
+            raise ParameterError(f"--{flag} needs --sim mujoco (the LIP has nothing to show)")
+    if getattr(args, "viewer", False):
+        from .sim.video import check_viewer
+
+        check_viewer()
+
+
 def _spec(args, modules: tuple[str, ...]):
+    """The RunSpec of ``args``, with the command clipped to the robot's steps, and the warnings."""
+    from .inputs import check_forces_in_run, gait_params, limit_command
     from .planner import WalkCommand
     from .runner import RunSpec
 
-    return RunSpec(
-        robot=args.robot, sim=args.sim, modules=modules,
-        command=WalkCommand(args.vx, args.vy, args.omega), duration_s=args.duration,
-        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body or "servo",
+    forces = _forces(args)
+    spec = RunSpec(
+        robot=args.robot, sim=args.sim, modules=modules, duration_s=args.duration,
+        forces=tuple(w for _, _, w in forces), seed=args.seed, delta_max_mps2=args.delta_max,
+        whole_body=args.whole_body or "servo",
     )
+    check_forces_in_run(forces, args.duration)
+    requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}
+    applied, warnings = limit_command(args.robot, gait_params(args.robot, args.sim), requested)
+    args.command_requested = {"vx_mps": args.vx, "vy_mps": args.vy, "omega_radps": args.omega}
+    args.warnings = warnings
+    return replace(spec, command=WalkCommand(applied["--vx"], applied["--vy"], applied["--omega"]))
 
 
-def _write_run(result, out: Path, title: str | None = None) -> None:
+def _write_run(result, out: Path, args=None, title: str | None = None) -> None:
+    """summary.json (with the requested command and the warnings), trace.npz, gait.png; atomically."""
     from .io import atomic_write_json
     from .plotting import plot_run
 
+    if args is not None and getattr(args, "command_requested", None) is not None:
+        result.summary["command_requested"] = args.command_requested
+        result.summary["warnings"] = list(args.warnings)
     atomic_write_json(out / "summary.json", result.summary)
     result.trace.save(out / "trace.npz")
     plot_run(result.trace, out / "gait.png", title=title)
 
 
-def _one_line(summary: dict) -> str:
-    state = f"FELL ({summary['failure']})" if summary["fell"] else (
+def _one_line(summary: dict, label: str | None = None) -> str:
+    failed = "SIMULATION FAILED" if str(summary["failure"]).startswith("simulator_unstable") else "FELL"
+    state = f"{failed} ({summary['failure']})" if summary["fell"] else (
         "INTERRUPTED" if summary["failure"] == "interrupted" else "walked")
     return (
-        f"{summary['robot']}/{summary['sim']}/{summary['controller']}: {state}; "
+        f"{summary['robot']}/{summary['sim']}/{label or summary['controller']}: {state}; "
         f"{summary['duration_s']:.2f} s, {summary['distance_m']:.2f} m, {summary['steps_taken']} steps, "
         f"{summary['qp_infeasible_count']} infeasible QPs, cycle median {summary['cycle_ms']['median']} ms"
     )
 
 
+def _interrupted(args, what: str) -> int:
+    sys.stderr.write(f"ismpc: interrupted; {what}\n")
+    return 130
+
+
 def cmd_run(args) -> int:
+    from .inputs import check_modules_flags
     from .runner import parse_modules, run
 
     modules = parse_modules(args.controller, args.modules)
+    check_modules_flags(modules, args.modules, args.delta_max)
+    _require(args)
+    _check_sim_flags(args)
     spec = _spec(args, modules)
-    out = _prepare_out(args.out, args.overwrite)
+    out = _open_out(args)
+    for line in args.warnings:
+        _warn(line)
     video = out / "video.mp4" if args.video else None
-    result = run(spec, progress=_progress(args, spec.controller_label), video_path=video)
+    result = run(spec, progress=_progress(args, spec.controller_label), video_path=video, viewer=args.viewer)
     _end_progress(args)
-    _write_run(result, out)
+    _write_run(result, out, args)
     print(_one_line(result.summary))
     print(f"wrote {out / 'summary.json'}, {out / 'gait.png'}, {out / 'trace.npz'}" + (f", {video}" if video else ""))
-    if result.summary["failure"] == "interrupted":
-        sys.stderr.write("ismpc: interrupted; the part of the run that finished was written\n")
-        return 130
+    if result.summary["failure"] == "interrupted" or args.interrupts.requested:
+        return _interrupted(args, f"the part of the run that finished ({result.summary['duration_s']:.2f} s) "
+                            f"was written to {out}")
     return 0
+
+
+def _robust_label(modules) -> str:
+    """"robust", or "robust (timing)" when the robust run has only some modules (paper-ball)."""
+    from .runner import MODULES
+
+    return "robust" if set(modules) == set(MODULES) else f"robust ({'+'.join(modules)})"
 
 
 def _compare_scenario(args) -> int:
     """``ismpc compare NAME``: both controllers on one seed of a named scenario."""
-    from dataclasses import replace
-
     from .io import atomic_write_json
     from .plotting import plot_comparison
     from .runner import parse_modules
@@ -321,24 +195,35 @@ def _compare_scenario(args) -> int:
         if given is not None:
             raise ParameterError(f"scenario {scenario.name} fixes its command and modules; {flag} is not allowed with it")
     if args.robust_modules is not None:
-        scenario = replace(scenario, robust_modules=parse_modules("robust", args.robust_modules))
+        modules = parse_modules("robust", args.robust_modules)
+        from .inputs import check_modules_flags
+
+        check_modules_flags(modules, args.robust_modules, None, "--robust-modules")
+        scenario = replace(scenario, robust_modules=modules)
     if args.duration is not None:
         scenario = replace(scenario, duration_s=args.duration)
     args.duration = scenario.duration_s
-    out = _prepare_out(args.out, args.overwrite)
-    result = run_scenario(scenario, seed=args.seed, extra_forces=_forces(args),
-                          progress=lambda label: _progress(args, label), video_dir=out if args.video else None,
-                          whole_body=args.whole_body)
+    forces = _forces(args)
+    from .inputs import check_forces_in_run
+
+    check_forces_in_run(forces, scenario.duration_s)
+    out = _open_out(args)
+    labels = {"nominal": "nominal", "robust": _robust_label(scenario.robust_modules)}
+    result = run_scenario(scenario, seed=args.seed, extra_forces=tuple(w for _, _, w in forces),
+                          progress=lambda label: _progress(args, labels.get(label, label)),
+                          video_dir=out if args.video else None, whole_body=args.whole_body)
     for label, run_result in result.results.items():
         (out / label).mkdir(exist_ok=True)
         _end_progress(args)
-        _write_run(run_result, out / label, title=f"{scenario.name} seed {args.seed}: {label}")
-        print(_one_line(run_result.summary))
+        _write_run(run_result, out / label, title=f"{scenario.name} seed {args.seed}: {labels[label]}")
+        print(_one_line(run_result.summary, labels[label]))
+    if args.interrupts.requested:
+        return _interrupted(args, f"the runs' finished parts were written to {out}; no comparison")
     comparison = result.comparison
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
-    labels = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
-    plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
+    names = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
+    plot_comparison(traces, names, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
     envelope = comparison.get("dcm_error_envelope_m")
@@ -347,10 +232,10 @@ def _compare_scenario(args) -> int:
         first = {k: comparison[k]["first_dcm_correction_s"] for k in ("nominal", "robust")}
         print(f"both MPCs adopt the measured DCM beyond the undisturbed walk's error envelope "
               f"(x {xl} to {xu} mm, y {yl} to {yu} mm); first adopted at {first['nominal']} s (nominal), "
-              f"{first['robust']} s (robust)")
+              f"{first['robust']} s ({labels['robust']})")
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
-          f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "
-          f"nominal {dev['nominal']} m, robust {dev['robust']} m; expected outcome: "
+          f"{labels['robust']} {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged "
+          f"max) nominal {dev['nominal']} m, {labels['robust']} {dev['robust']} m; expected outcome: "
           f"{'yes' if comparison['expected_outcome'] else 'NO'}")
     print(f"wrote {out / 'comparison.json'}, {out / 'comparison.png'}, {out / 'nominal'}, {out / 'robust'}")
     return 0
@@ -366,33 +251,50 @@ def cmd_scenarios(args) -> int:
 
 
 def cmd_compare(args) -> int:
+    from .inputs import check_modules_flags
     from .io import atomic_write_json
     from .plotting import plot_comparison
     from .runner import parse_modules, run
 
     if args.scenario is not None:
+        _require(args)
         return _compare_scenario(args)
     for name, default in (("sim", "lip"), ("robot", "g1"), ("vx", 0.2), ("vy", 0.0), ("omega", 0.0), ("duration", 10.0)):
         if getattr(args, name) is None:
             setattr(args, name, default)
-    robust_modules = parse_modules("robust", args.robust_modules or "observer,restriction,timing")
-    out = _prepare_out(args.out, args.overwrite)
+    _require(args)
+    robust_modules = parse_modules("robust", "observer,restriction,timing" if args.robust_modules is None
+                                   else args.robust_modules)
+    check_modules_flags(robust_modules, args.robust_modules, args.delta_max, "--robust-modules")
+    _check_sim_flags(args)
+    specs = {"nominal": replace(_spec(args, robust_modules), modules=(), delta_max_mps2=None),
+             _robust_label(robust_modules): _spec(args, robust_modules)}
+    out = _open_out(args)
+    for line in args.warnings:
+        _warn(line)
     results = {}
-    for label, modules in (("nominal", ()), ("robust", robust_modules)):
-        spec = _spec(args, modules)
-        (out / label).mkdir(exist_ok=True)
-        video = out / label / "video.mp4" if args.video else None
+    for label, spec in specs.items():
+        if args.interrupts.requested:
+            break
+        folder = "nominal" if label == "nominal" else "robust"
+        (out / folder).mkdir(exist_ok=True)
+        video = out / folder / "video.mp4" if args.video else None
         results[label] = run(spec, progress=_progress(args, label), video_path=video)
         _end_progress(args)
-        _write_run(results[label], out / label)
-        print(_one_line(results[label].summary))
+        _write_run(results[label], out / folder, args, title=None)
+        print(_one_line(results[label].summary, label))
+    if args.interrupts.requested:
+        return _interrupted(args, f"{', '.join(results)} written to {out} (the last one as far as it ran); "
+                            "no comparison")
+    nominal, robust = results.values()
     comparison = {
-        label: {k: r.summary[k] for k in ("fell", "failure", "distance_m", "steps_taken", "qp_infeasible_count",
-                                          "max_zmp_violation_m", "timing_adaptations", "min_time_to_step_s",
-                                          "disturbance_estimate_final", "modules")}
-        for label, r in results.items()
+        key: {k: r.summary[k] for k in ("fell", "failure", "distance_m", "steps_taken", "qp_infeasible_count",
+                                        "max_zmp_violation_m", "timing_adaptations", "min_time_to_step_s",
+                                        "disturbance_estimate_final", "modules")}
+        for key, r in (("nominal", nominal), ("robust", robust))
     }
-    comparison["robust_survives_nominal_fails"] = (not results["robust"].summary["fell"]) and results["nominal"].summary["fell"]
+    comparison["robust_survives_nominal_fails"] = (not robust.summary["fell"]) and nominal.summary["fell"]
+    comparison["warnings"] = list(args.warnings)
     atomic_write_json(out / "comparison.json", comparison)
     plot_comparison([r.trace for r in results.values()], list(results), out / "comparison.png",
                     title=f"{args.robot} on {args.sim}: nominal vs robust")
@@ -401,41 +303,65 @@ def cmd_compare(args) -> int:
 
 
 def cmd_soak(args) -> int:
+    from .inputs import gait_params, limit_command
     from .io import atomic_write_json
     from .runner import parse_modules
-    from .soak import SoakSpec, run_soak
+    from .soak import DEFAULT_VX_MPS, SoakSpec, run_soak
 
+    _require(args)
+    modules = parse_modules("robust", args.modules)
+    from .inputs import check_modules_flags
+
+    check_modules_flags(modules, args.modules, None)
+    _check_sim_flags(args)
+    warnings = []
+    if args.vx is not None:
+        applied, warnings = limit_command(args.robot, gait_params(args.robot, args.sim), {"--vx": args.vx})
+        args.vx = applied["--vx"]
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
-                    vx_mps=args.vx, seed=args.seed, modules=parse_modules("robust", args.modules),
-                    whole_body=args.whole_body)
-    out = _prepare_out(args.out, args.overwrite)
+                    vx_mps=args.vx if args.vx is not None else DEFAULT_VX_MPS.get(args.sim), seed=args.seed,
+                    modules=modules, whole_body=args.whole_body)
+    out = _open_out(args)
+    for line in warnings:
+        _warn(line)
     args.duration = spec.duration_s
-    args.quiet = False
     report, result = run_soak(spec, progress=_progress(args, "soak"))
+    report["warnings"] = warnings
     _end_progress(args)
     atomic_write_json(out / "soak.json", report)
     _write_run(result, out)
-    state = "FELL" if report["fell"] else "no fall"
+    state = "FELL" if report["fell"] else ("INTERRUPTED" if report["failure"] == "interrupted" else "no fall")
     print(f"soak {spec.robot}/{spec.sim}: {report['simulated_s']:.0f} s simulated in {report['wall_s']:.0f} s, "
           f"{report['pushes']} pushes (max {report['push_max_n']:.1f} N), {state}, "
           f"{report['qp_infeasible_count']} infeasible QPs, RSS {report['rss_mb'][0]['rss_mb']} -> "
           f"{report['rss_mb'][-1]['rss_mb']} MB (trace {report['trace_mb']} MB)")
     print(f"wrote {out / 'soak.json'}")
-    return 0 if not report["fell"] else 1
+    if report["failure"] == "interrupted" or args.interrupts.requested:
+        return _interrupted(args, f"the part of the soak that finished ({report['simulated_s']:.0f} s) was written "
+                            f"to {out}")
+    return 0  # a fall is an outcome (soak.json), not an error
 
 
 def cmd_calibrate(args) -> int:
+    from .inputs import gait_params, limit_command, require_extra
     from .io import atomic_write_json
     from .planner import WalkCommand
     from .plotting import plot_swing_cop_fit
+
+    require_extra("plot", "ismpc calibrate (its figure)")
+    require_extra("sim", "ismpc calibrate")
     from .sim.calibrate import fit_swing_cop_gain
 
-    out = _prepare_out(args.out, args.overwrite)
-    fit = fit_swing_cop_gain(args.robot, WalkCommand(args.vx), duration_s=args.duration)
-    report = {"robot": args.robot, "vx_mps": args.vx, "duration_s": args.duration, **fit.summary()}
+    applied, warnings = limit_command(args.robot, gait_params(args.robot, "mujoco"), {"--vx": args.vx})
+    out = _open_out(args)
+    for line in warnings:
+        _warn(line)
+    fit = fit_swing_cop_gain(args.robot, WalkCommand(applied["--vx"]), duration_s=args.duration)
+    report = {"robot": args.robot, "vx_mps": applied["--vx"], "duration_s": args.duration, **fit.summary(),
+              "warnings": warnings}
     atomic_write_json(out / "calibration.json", report)
     plot_swing_cop_fit(fit.swing_acceleration_mps2, fit.cop_deviation_m, fit.gain_s2, fit.offset_m,
-                       out / "calibration.png", title=f"{args.robot}: swing-leg CoP gain at {args.vx} m/s")
+                       out / "calibration.png", title=f"{args.robot}: swing-leg CoP gain at {applied['--vx']} m/s")
     print(f"{args.robot}: κ = {fit.gain_s2:.4f} s² (forward CoP deviation {100 * fit.rms_before_m:.2f} cm rms, "
           f"{100 * fit.rms_after_m:.2f} cm with κ a removed, {fit.samples} ticks); "
           f"in the robot's [gait]: swing_cop_gain_s2 = {fit.gain_s2:.4f}")
@@ -444,21 +370,20 @@ def cmd_calibrate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import format_table, run_bench, write_bench
+    from .bench import check_bench_args, format_table, run_bench, write_bench
 
-    try:
-        horizons = [int(h) for h in args.horizons.split(",")]
-    except ValueError:
-        raise ParameterError(f"--horizons must be comma-separated integers, got {args.horizons!r}") from None
-    if any(h < 2 for h in horizons):
-        raise ParameterError(f"--horizons must be >= 2 samples, got {args.horizons!r}")
-    if args.cycles < 10:
-        raise ParameterError(f"--cycles must be >= 10, got {args.cycles}")
-    solvers = [s.strip() for s in args.solvers.split(",") if s.strip()]
+    horizons, solvers = check_bench_args(args.horizons, args.cycles, args.solvers)
+    if args.mujoco:
+        from .inputs import require_extra
+
+        require_extra("sim", "ismpc bench --mujoco")
+    out = None
+    if args.out is not None:
+        out = _open_out(args, require_empty=False)
     result = run_bench(args.robot, horizons, args.cycles, solvers, mujoco=args.mujoco)
     print(format_table(result))
-    if args.out:
-        paths = write_bench(result, Path(args.out))
+    if out is not None:
+        paths = write_bench(result, out)
         print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
@@ -490,6 +415,7 @@ def _sweep_progress(args):
 def cmd_sweep(args) -> int:
     import shlex
 
+    from .inputs import gait_params, limit_command
     from .sweep import (
         DEFAULT_POST_PUSH_S,
         SweepConfig,
@@ -500,14 +426,21 @@ def cmd_sweep(args) -> int:
         run_sweep,
     )
 
+    _require(args)
+    _check_sim_flags(args)
+    controllers = parse_controllers(args.controllers)
+    applied, warnings = limit_command(args.robot, gait_params(args.robot, args.sim), {"--vx": args.vx})
     config = SweepConfig(
-        robot=args.robot, sim=args.sim, controllers=parse_controllers(args.controllers),
+        robot=args.robot, sim=args.sim, controllers=controllers,
         directions_deg=parse_directions(args.direction), phases=parse_phases(args.phase),
         impulse_max_ns=args.impulse_max, force_max_n=args.force_max, push_duration_s=args.push_duration,
-        vx_mps=args.vx, post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
+        vx_mps=applied["--vx"],
+        post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
         iterations=args.iterations, pushed_step=args.pushed_step,
         seed=args.seed, whole_body=args.whole_body,
     )
+    for line in warnings:
+        _warn(line)
     progress = _sweep_progress(args)
     out = Path(args.out)
     try:
@@ -528,7 +461,14 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+#: Commands whose Ctrl-C (and SIGTERM) ends the simulation at a tick boundary and writes what
+#: ran; the others stop at once (a sweep keeps its finished trials in runs.csv).
+DEFERRED_INTERRUPT_COMMANDS = ("run", "compare", "soak")
+
+
 def main(argv: list[str] | None = None) -> int:
+    from .outputs import Interrupts
+
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING if args.verbose else logging.ERROR, format="%(levelname)s %(message)s")
@@ -537,20 +477,31 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep, "soak": cmd_soak,
                 "scenarios": cmd_scenarios, "calibrate": cmd_calibrate}
+    args.out_dir = None
+    args.interrupts = Interrupts(deferred=args.command in DEFERRED_INTERRUPT_COMMANDS).install()
+    logging.captureWarnings(True)  # numerical warnings go to the log (shown with --verbose), not stderr
     try:
         return handlers[args.command](args)
     except IsmpcError as exc:
-        sys.stderr.write(f"ismpc: error: {exc}\n")
+        if args.interrupts.requested:
+            return _interrupted(args, "stopped before a run finished; nothing more was written")
+        sys.stderr.write(f"ismpc: error: {flag_names(str(exc))}\n")
         return 2
     except KeyboardInterrupt:
-        sys.stderr.write("\nismpc: interrupted; finished outputs were kept\n")
-        return 130
+        if args.interrupts.deferred:
+            return _interrupted(args, "stopped at once (second signal); files already written were kept")
+        return _interrupted(args, "files already written were kept")
     except Exception as exc:  # an internal error: one line, details only with --verbose
         logging.getLogger("robust_ismpc").debug("internal error", exc_info=True)
         sys.stderr.write(f"ismpc: internal error: {type(exc).__name__}: {exc} (rerun with --verbose for details)\n")
         if args.verbose:
             raise
         return 1
+    finally:
+        logging.captureWarnings(False)
+        args.interrupts.restore()
+        if args.out_dir is not None:
+            args.out_dir.release()
 
 
 if __name__ == "__main__":  # pragma: no cover

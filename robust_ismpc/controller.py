@@ -92,6 +92,17 @@ def check_dcm_error_envelope(owner: str, envelope) -> np.ndarray | None:
     return array
 
 
+def _check_call(where: str, arrays: dict, t_s: float | None = None, previous_t_s: float | None = None) -> None:
+    """ParameterError if an array of ``arrays`` (name -> array or None) is not finite, or if
+    ``t_s`` does not come after ``previous_t_s`` (the controller's model advances every step)."""
+    for name, value in arrays.items():
+        if value is not None and not np.all(np.isfinite(np.asarray(value, dtype=float))):
+            raise ParameterError(f"{where}: {name} must be finite, got {value!r}")
+    if t_s is not None and previous_t_s is not None and not t_s > previous_t_s:
+        raise ParameterError(f"{where}: t_s = {t_s!r} s does not come after the previous step ({previous_t_s!r} s); "
+                             "step() needs increasing times (reset() starts again)")
+
+
 class _RateLimitedLog:
     """Log a message at most once per ``period_s`` of controller time, counting the rest."""
 
@@ -236,6 +247,8 @@ class IsmpcController:
         vel = np.zeros(2) if com_vel_mps is None else np.asarray(com_vel_mps, float).reshape(-1)[:2]
         if not (np.all(np.isfinite(com)) and np.all(np.isfinite(vel))):
             raise ParameterError("reset: initial CoM position and velocity must be finite")
+        _check_call("reset", {"left_foot_m": left_foot_m, "right_foot_m": right_foot_m, "plan.pos_m": plan.pos_m})
+        self._last_step_t_s = math.nextafter(float(t_s), -math.inf)  # the first step may be at t_s
         self.plan = plan
         plan.step_at(t_s)  # raises PlanError if outside
         self.state = np.vstack([com, vel, com])  # rows x_c, ẋ_c, x_z; columns x, y
@@ -437,6 +450,10 @@ class IsmpcController:
             raise ParameterError("call reset() before step()")
         if not math.isfinite(t_s):
             raise ParameterError(f"t_s must be finite, got {t_s!r}")
+        soles = {} if measurement is None else {"measurement.left_sole_m": measurement.left_sole_m,
+                                                  "measurement.right_sole_m": measurement.right_sole_m}
+        _check_call("step", soles, t_s, getattr(self, "_last_step_t_s", None))
+        self._last_step_t_s = t_s
         start = time.perf_counter()
         self.info.build_time_s = self.info.solve_time_s = 0.0
         if measurement is not None:

@@ -80,38 +80,49 @@ def _numbers(text: str, count: int, what: str, spec: str) -> list[float]:
     return values
 
 
+def _window(flag: str, spec: str, fx: float, fy: float, t0: float, t1: float) -> ForceWindow:
+    """The ForceWindow of a command-line value, with errors that name the flag, not the class."""
+    if not math.isfinite(t0) or math.isnan(t1):
+        raise ParameterError(f"{flag} {spec!r}: times must be finite numbers of seconds")
+    if t0 < 0:
+        raise ParameterError(f"{flag} {spec!r}: the start time must be >= 0 s, got {t0:g}")
+    if t1 <= t0:
+        raise ParameterError(f"{flag} {spec!r}: the end {t1:g} s must be after its start {t0:g} s")
+    return ForceWindow(fx, fy, t0, t1)
+
+
 def parse_force(spec: str) -> ForceWindow:
     """Parse ``FX,FY`` or ``FX,FY@T0:T1`` (newtons, seconds; ``T1`` may be empty = until the end)."""
     if not isinstance(spec, str) or not spec.strip():
-        raise ParameterError("force: expected FX,FY[@T0:T1], got an empty string")
+        raise ParameterError("--force: expected FX,FY[@T0:T1], got an empty string")
     head, _, window = spec.strip().partition("@")
-    fx, fy = _numbers(head, 2, "force", spec)
+    fx, fy = _numbers(head, 2, "--force", spec)
     if not window:
         return ForceWindow(fx, fy)
     t0_text, sep, t1_text = window.partition(":")
     if not sep:
-        raise ParameterError(f"force {spec!r}: the window must be T0:T1 (seconds), e.g. 10,0@1.0:3.0")
+        raise ParameterError(f"--force {spec!r}: the window must be T0:T1 (seconds), e.g. 10,0@1.0:3.0")
     try:
         t0 = float(t0_text)
         t1 = float(t1_text) if t1_text.strip() else math.inf
     except ValueError:
-        raise ParameterError(f"force {spec!r}: window {window!r} is not T0:T1 in seconds") from None
-    return ForceWindow(fx, fy, t0, t1)
+        raise ParameterError(f"--force {spec!r}: window {window!r} is not T0:T1 in seconds") from None
+    return _window("--force", spec, fx, fy, t0, t1)
 
 
 def parse_push(spec: str) -> ForceWindow:
     """Parse ``FX,FY@T:DUR``: a push of force (FX, FY) [N] from T lasting DUR [s]."""
     if not isinstance(spec, str) or "@" not in spec:
-        raise ParameterError(f"push {spec!r}: expected FX,FY@T:DUR, e.g. 0,80@2.3:0.1")
+        raise ParameterError(f"--push {spec!r}: expected FX,FY@T:DUR, e.g. 0,80@2.3:0.1")
     head, _, window = spec.strip().partition("@")
-    fx, fy = _numbers(head, 2, "push", spec)
+    fx, fy = _numbers(head, 2, "--push", spec)
     t_text, sep, dur_text = window.partition(":")
     if not sep:
-        raise ParameterError(f"push {spec!r}: expected FX,FY@T:DUR, e.g. 0,80@2.3:0.1")
+        raise ParameterError(f"--push {spec!r}: expected FX,FY@T:DUR, e.g. 0,80@2.3:0.1")
     try:
         t0, dur = float(t_text), float(dur_text)
     except ValueError:
-        raise ParameterError(f"push {spec!r}: {window!r} is not T:DUR in seconds") from None
+        raise ParameterError(f"--push {spec!r}: {window!r} is not T:DUR in seconds") from None
     if not (math.isfinite(dur) and dur > 0):
-        raise ParameterError(f"push {spec!r}: duration must be > 0 s, got {dur_text!r}")
-    return ForceWindow(fx, fy, t0, t0 + dur)
+        raise ParameterError(f"--push {spec!r}: duration must be > 0 s, got {dur_text!r}")
+    return _window("--push", spec, fx, fy, t0, t0 + dur)

@@ -115,6 +115,8 @@ def plan_footsteps(
         raise ParameterError(f"first_support must be +1 (left) or -1 (right), got {first_support!r}")
     left = np.asarray(left_foot_m, dtype=float).reshape(2)
     right = np.asarray(right_foot_m, dtype=float).reshape(2)
+    if not (np.all(np.isfinite(left)) and np.all(np.isfinite(right)) and math.isfinite(yaw_rad)):
+        raise ParameterError(f"initial soles and yaw must be finite, got {left_foot_m!r}, {right_foot_m!r}, {yaw_rad!r}")
     t_stand = 2.0 * robot.T_step_s if initial_stand_s is None else float(initial_stand_s)
     t_ds0 = robot.T_step_s if initial_ds_s is None else float(initial_ds_s)
     if not (math.isfinite(t_stand) and t_stand >= 0):

@@ -4,12 +4,20 @@ from __future__ import annotations
 
 import io
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .io import atomic_write_bytes
 from .trace import Trace
+
+#: Runs longer than this [s] are drawn as their last :data:`DETAIL_S` seconds, with an overview
+#: of the whole run (decimated to at most :data:`OVERVIEW_POINTS` points) below: the whole of a
+#: 10-minute walk at one scale is metres of overlapping footsteps and solid bands.
+LONG_RUN_S = 60.0
+DETAIL_S = 20.0
+OVERVIEW_POINTS = 2000
 
 
 def _pyplot():
@@ -41,7 +49,22 @@ def _sole_outline(pos: np.ndarray, yaw: float, corners: np.ndarray) -> np.ndarra
     return pos + corners @ np.array([[c, s], [-s, c]])
 
 
-def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | None) -> None:
+def detail_window(trace: Trace) -> tuple[float, float]:
+    """Time span [s] drawn in detail: the whole run, or its last :data:`DETAIL_S` seconds if it is
+    longer than :data:`LONG_RUN_S`."""
+    t = trace["t_s"]
+    if not len(t):
+        return 0.0, 0.0
+    t_end = float(t[-1])
+    return (max(float(t[0]), t_end - DETAIL_S) if t_end - float(t[0]) > LONG_RUN_S else float(t[0])), t_end
+
+
+def _decimation(n: int) -> int:
+    """Stride that leaves at most :data:`OVERVIEW_POINTS` of ``n`` samples."""
+    return max(1, -(-n // OVERVIEW_POINTS))
+
+
+def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | None, t_start: float = 0.0) -> None:
     from matplotlib.patches import Polygon
 
     L = trace.meta.get("sole_length_m", 0.2)
@@ -51,6 +74,9 @@ def _footstep_patches(ax, trace: Trace, t_end: float, color: str, label: str | N
     done = np.ones(len(steps), dtype=bool)
     done[0] = False  # virtual midpoint
     done[2:] = trace.footstep_touchdown_s[2:] <= t_end + 1e-9
+    if t_start > 0:  # only the steps that land in the window drawn
+        done[1] = False
+        done[2:] &= trace.footstep_touchdown_s[2:] >= t_start
     first = True
     for pos, yaw, side, ok in zip(steps, trace.footstep_yaw_rad, trace.footstep_side, done):
         if not ok:
@@ -87,10 +113,13 @@ def _measured_footprints(ax, trace: Trace, done: np.ndarray, corners: np.ndarray
 
 
 def _draw_run(axes, trace: Trace, title: str) -> None:
+    t_start, t_end = detail_window(trace)
+    if len(trace) and t_start > trace["t_s"][0]:
+        title = f"{title} (last {t_end - t_start:.0f} s of {t_end:.0f} s)"
+    trace = _window(trace, t_start)
     t = trace["t_s"]
-    t_end = float(t[-1]) if len(t) else 0.0
     top, ax_x, ax_y, ax_w = axes
-    _footstep_patches(top, trace, t_end, "tab:blue", "planned footsteps (left blue)")
+    _footstep_patches(top, trace, t_end, "tab:blue", "planned footsteps (left blue)", t_start)
     top.plot(trace["zmp_m"][:, 0], trace["zmp_m"][:, 1], color="tab:orange", lw=1, label="ZMP")
     top.plot(trace["com_m"][:, 0], trace["com_m"][:, 1], color="tab:green", lw=1.5, label="CoM")
     top.set_aspect("equal", adjustable="datalim")
@@ -132,16 +161,44 @@ def _draw_run(axes, trace: Trace, title: str) -> None:
     ax_w.legend(loc="best", fontsize=7)
 
 
+def _window(trace: Trace, t_start: float) -> Trace:
+    """``trace`` from ``t_start`` on (the same object if that is all of it)."""
+    t = trace["t_s"]
+    if not len(t) or t_start <= t[0]:
+        return trace
+    keep = t >= t_start
+    return replace(trace, channels={k: v[keep] for k, v in trace.channels.items()})
+
+
+def _draw_overview(ax, trace: Trace, t_start: float) -> None:
+    """CoM x and y over the whole run, decimated, with the detail window shaded."""
+    step = _decimation(len(trace))
+    t = trace["t_s"][::step]
+    for axis, color in ((0, "tab:green"), (1, "tab:olive")):
+        ax.plot(t, trace["com_m"][::step, axis], color=color, lw=1, label=f"CoM {'xy'[axis]}")
+    ax.axvspan(t_start, float(trace["t_s"][-1]), color="tab:gray", alpha=0.2, label="drawn above")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("whole run [m]")
+    ax.legend(loc="best", fontsize=7)
+
+
 def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     """Write the gait figure of one run: top view; x, y over time with ZMP bounds, DCM and
-    feasibility region; applied and estimated disturbance."""
+    feasibility region; applied and estimated disturbance. A run longer than
+    :data:`LONG_RUN_S` is drawn over its last :data:`DETAIL_S` seconds, with the CoM of the whole
+    run (decimated) in an extra panel."""
     plt = _pyplot()
-    fig = plt.figure(figsize=(11, 10))
-    grid = fig.add_gridspec(4, 1, height_ratios=[1.4, 1, 1, 0.8])
+    t_start, _ = detail_window(trace)
+    long_run = len(trace) > 0 and t_start > trace["t_s"][0]
+    fig = plt.figure(figsize=(11, 12 if long_run else 10))
+    ratios = [1.4, 1, 1, 0.8] + ([0.8] if long_run else [])
+    grid = fig.add_gridspec(len(ratios), 1, height_ratios=ratios)
     axes = [fig.add_subplot(grid[0])]
     axes.append(fig.add_subplot(grid[1]))
     axes.append(fig.add_subplot(grid[2], sharex=axes[1]))
     axes.append(fig.add_subplot(grid[3], sharex=axes[1]))
+    if long_run:
+        _draw_overview(fig.add_subplot(grid[4]), trace, t_start)
     meta = trace.meta
     sim = meta.get("sim")
     if sim == "mujoco" and meta.get("whole_body", "servo") != "servo":

@@ -14,11 +14,11 @@ import numpy as np
 from .controller import IsmpcController
 from .exceptions import ParameterError
 from .forces import ForceWindow
-from .lip_sim import run_lip
+from .lip_sim import INTERRUPTED, RunOutcome, run_lip
 from .params import MpcParams, RobotParams, robot_params
 from .planner import WalkCommand, plan_footsteps
 from .report import summarize
-from .trace import Trace
+from .trace import Trace, TraceRecorder
 
 MODULES = ("observer", "restriction", "timing")
 SIMS = ("lip", "mujoco")
@@ -175,30 +175,41 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
     }
 
 
-def run(spec: RunSpec, progress=None, video_path=None) -> RunResult:
+def run(spec: RunSpec, progress=None, video_path=None, viewer: bool = False) -> RunResult:
     """Run ``spec`` and return its summary and trace.
 
     Parameters
     ----------
     spec : RunSpec
     progress : callable, optional
-        ``progress(t_s)`` called about once per simulated second.
+        ``progress(t_s)`` called about once per simulated second. If it raises
+        ``KeyboardInterrupt`` (as on Ctrl-C), the run stops there and returns what ran, with
+        failure ``"interrupted"``.
     video_path : path, optional
         MuJoCo only: write an mp4 of the run there.
+    viewer : bool
+        MuJoCo only: show the run in MuJoCo's interactive viewer (needs a display).
     """
     if spec.sim == "mujoco":
         from .sim.run import run_mujoco_spec
 
+        if viewer:
+            return run_mujoco_spec(spec, progress=progress, video_path=video_path, viewer=True)
         return run_mujoco_spec(spec, progress=progress, video_path=video_path)
-    if video_path is not None:
-        raise ParameterError("--video needs --sim mujoco (the LIP has nothing to render)")
+    if video_path is not None or viewer:
+        raise ParameterError("--video and --viewer need --sim mujoco (the LIP has nothing to show)")
     robot = robot_params(spec.robot)
     controller = make_controller(robot, spec)
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
     plan = plan_footsteps(robot, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0, left, -left)
     controller.reset(plan, np.zeros(2))
     start = time.perf_counter()
-    outcome, recorder = run_lip(controller, spec.duration_s, spec.forces, progress=progress)
+    recorder = TraceRecorder(int(spec.duration_s / controller.dt) + 2)
+    try:
+        outcome, recorder = run_lip(controller, spec.duration_s, spec.forces, recorder=recorder, progress=progress)
+    except KeyboardInterrupt:  # from progress, between ticks: keep the ticks recorded so far
+        t = recorder.last_time_s()
+        outcome = RunOutcome(fell=False, failure=INTERRUPTED, duration_s=0.0 if t is None else t + controller.dt)
     wall = time.perf_counter() - start
     meta = run_meta(spec, robot)
     meta["fell"] = outcome.fell

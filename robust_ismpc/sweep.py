@@ -50,6 +50,7 @@ import numpy as np
 from .exceptions import ParameterError
 from .forces import ForceWindow
 from .io import atomic_write_bytes, atomic_write_json
+from .outputs import _is_scratch, open_output_dir
 from .params import check_positive
 
 LOGGER = logging.getLogger("robust_ismpc")
@@ -625,7 +626,12 @@ def read_runs(path: Path) -> list[dict]:
     if not data:
         return []
     complete = data if data.endswith(b"\n") else data[: data.rfind(b"\n") + 1]
-    lines = complete.decode().splitlines(keepends=True)
+    try:
+        lines = complete.decode().splitlines(keepends=True)
+    except UnicodeDecodeError as exc:
+        line = complete[: exc.start].count(b"\n") + 1
+        raise ParameterError(f"{path} line {line} is not text (the file is corrupted); delete that line (its "
+                             "trial runs again) or pass --overwrite to start the sweep again") from None
     if not lines:
         atomic_write_bytes(path, b"")
         return []
@@ -633,17 +639,32 @@ def read_runs(path: Path) -> list[dict]:
     if tuple(header) != COLUMNS:
         raise ParameterError(f"{path} does not have the columns of a sweep's runs.csv; pass --overwrite to start again")
     rows, kept = [], [lines[0]]
-    for line in lines[1:]:
+    for number, line in enumerate(lines[1:], start=2):
         values = next(csv.reader([line]), [])
         if len(values) != len(COLUMNS):
             LOGGER.warning("dropping a malformed row of %s: %r", path, line[:80])
             continue
-        rows.append(dict(zip(COLUMNS, values)))
+        rows.append(_check_row(path, number, dict(zip(COLUMNS, values))))
         kept.append(line)
     if len(kept) != len(lines) or complete != data:
         LOGGER.warning("repaired %s: kept %d complete rows", path, len(rows))
         atomic_write_bytes(path, "".join(kept).encode())
     return rows
+
+
+def _check_row(path: Path, number: int, row: dict) -> dict:
+    """``row`` (line ``number`` of ``path``) if the values a resume reads parse; else ParameterError."""
+    checks = {"direction_deg": float, "phase": float, "magnitude": float, "iteration": int,
+              "kind": KINDS.index, "survived": ("0", "1").index}
+    for column, parse in checks.items():
+        try:
+            parse(row[column])
+        except ValueError:
+            raise ParameterError(
+                f"{path} line {number}: {column} {row[column]!r} is not valid (the file is corrupted); delete that "
+                "line (its trial runs again) or pass --overwrite to start the sweep again"
+            ) from None
+    return row
 
 
 class _RunsWriter:
@@ -675,9 +696,28 @@ def _row_key(row: dict) -> tuple[TaskKey, int]:
 # ---------------------------------------------------------------------------------------------
 # Backends
 # ---------------------------------------------------------------------------------------------
-def _worker_init(log_level: int) -> None:
-    """Local worker: leave Ctrl-C to the parent (it stops the workers) and log like the parent."""
+def _die_with_parent(parent_pid: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``), so a
+    sweep killed by SIGKILL leaves no orphaned workers; exit now if the parent is already gone."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the parent stops its workers on SIGINT/SIGTERM
+        pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+
+def _worker_init(log_level: int, parent_pid: int | None = None) -> None:
+    """Local worker: leave Ctrl-C and SIGTERM to the parent (it stops the workers), die with the
+    parent, and log like it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
     logging.getLogger("robust_ismpc").setLevel(log_level)
 
 
@@ -713,7 +753,8 @@ class _LocalBackend:
         from concurrent.futures import ProcessPoolExecutor
 
         level = logging.getLogger("robust_ismpc").getEffectiveLevel()
-        self._pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(level,))
+        self._pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                                         initargs=(level, os.getpid()))
 
     def submit(self, trial: Trial):
         return self._pool.submit(run_trial, trial)
@@ -891,7 +932,7 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> dict | None:
         raise ParameterError(f"--out {str(out)!r} exists and is not a directory")
     wanted = json.loads(json.dumps(config.to_dict()))
     previous = None
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and any(not _is_scratch(p.name) for p in out.iterdir()):
         if overwrite:
             for name in OUTPUT_FILES:
                 (out / name).unlink(missing_ok=True)
@@ -1003,6 +1044,11 @@ def run_sweep(
         Bad backend or worker count, or an ``out`` that cannot be used (see :func:`prepare_out`).
     KeyboardInterrupt
         Ctrl-C: the finished trials are in ``runs.csv`` (complete rows only); rerun to resume.
+
+    Notes
+    -----
+    ``out`` is locked while the sweep runs (:func:`robust_ismpc.outputs.open_output_dir`): a
+    second sweep into the same folder is refused instead of duplicating rows.
     """
     workers = (os.cpu_count() or 1) if workers is None else workers
     out = Path(out)
@@ -1014,66 +1060,68 @@ def run_sweep(
         raise ParameterError("--backend ray needs Ray, which is not installed: pip install ray")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    push_window = config.pushed_step_window()
-    code = code_digest()
-    previous_code = prepare_out(config, out, overwrite)
-    if previous_code is not None and previous_code != code:
-        LOGGER.warning("resuming a sweep started with other code (%s); runs.csv will mix trials of both",
-                       previous_code.get("sources_sha256"))
-    runs_path = out / RUNS_CSV
-    bisections, replayed = _replay(config, read_runs(runs_path))
-    pending_tasks = [k for k, b in bisections.items() if not b.done]
-    done = replayed
-    new = 0
+    # One sweep per folder at a time (a second one would append the same trials to runs.csv).
+    with open_output_dir(str(out), overwrite=True, require_empty=False):
+        push_window = config.pushed_step_window()
+        code = code_digest()
+        previous_code = prepare_out(config, out, overwrite)
+        if previous_code is not None and previous_code != code:
+            LOGGER.warning("resuming a sweep started with other code (%s); runs.csv will mix trials of both",
+                           previous_code.get("sources_sha256"))
+        runs_path = out / RUNS_CSV
+        bisections, replayed = _replay(config, read_runs(runs_path))
+        pending_tasks = [k for k, b in bisections.items() if not b.done]
+        done = replayed
+        new = 0
 
-    def total() -> int:
-        return done + sum(b.remaining_max for b in bisections.values())
+        def total() -> int:
+            return done + sum(b.remaining_max for b in bisections.values())
 
-    writer = _RunsWriter(runs_path)
-    executor = None
-    interrupted = False
-    try:
-        if pending_tasks:
-            executor = make_backend(backend, min(workers, len(pending_tasks)) if backend == "local" else workers)
-            in_flight: dict[object, Trial] = {}
-            for key in pending_tasks:
-                trial = _make_trial(config, key, bisections[key], push_window)
-                in_flight[executor.submit(trial)] = trial
-            while in_flight:
-                for handle, result in executor.wait(list(in_flight)):
-                    trial = in_flight.pop(handle)
-                    writer.append(trial_row(trial, result))
-                    b = bisections[trial.key]
-                    b.record(trial.magnitude, result.survived)
-                    done += 1
-                    new += 1
-                    if not b.done:
-                        nxt = _make_trial(config, trial.key, b, push_window)
-                        in_flight[executor.submit(nxt)] = nxt
-                    if progress is not None:
-                        progress(SweepProgress(done, total(), new, time.perf_counter() - start))
-    except BaseException:
-        interrupted = True
-        raise
-    finally:
-        writer.close()
-        if executor is not None:
-            executor.close(interrupted=interrupted)
-    wall = time.perf_counter() - start
-    frontier = frontier_summary(config, bisections)
-    rows = read_runs(runs_path)
-    paths = [out / SWEEP_JSON, runs_path]
-    atomic_write_json(out / FRONTIER_JSON, frontier)
-    paths.append(out / FRONTIER_JSON)
-    paths.extend(plot_frontiers(frontier, out))
-    result = SweepResult(frontier=frontier, paths=(), trials_total=len(rows), trials_new=new,
-                         trials_resumed=replayed, wall_time_s=wall)
-    report = format_report(config, frontier, result, rows, command_line=command_line, backend=backend,
-                           workers=workers, started_at=started_at, code=code, previous_code=previous_code)
-    atomic_write_bytes(out / REPORT_MD, report.encode())
-    paths.append(out / REPORT_MD)
-    return SweepResult(frontier=frontier, paths=tuple(paths), trials_total=len(rows), trials_new=new,
-                       trials_resumed=replayed, wall_time_s=wall)
+        writer = _RunsWriter(runs_path)
+        executor = None
+        interrupted = False
+        try:
+            if pending_tasks:
+                executor = make_backend(backend, min(workers, len(pending_tasks)) if backend == "local" else workers)
+                in_flight: dict[object, Trial] = {}
+                for key in pending_tasks:
+                    trial = _make_trial(config, key, bisections[key], push_window)
+                    in_flight[executor.submit(trial)] = trial
+                while in_flight:
+                    for handle, result in executor.wait(list(in_flight)):
+                        trial = in_flight.pop(handle)
+                        writer.append(trial_row(trial, result))
+                        b = bisections[trial.key]
+                        b.record(trial.magnitude, result.survived)
+                        done += 1
+                        new += 1
+                        if not b.done:
+                            nxt = _make_trial(config, trial.key, b, push_window)
+                            in_flight[executor.submit(nxt)] = nxt
+                        if progress is not None:
+                            progress(SweepProgress(done, total(), new, time.perf_counter() - start))
+        except BaseException:
+            interrupted = True
+            raise
+        finally:
+            writer.close()
+            if executor is not None:
+                executor.close(interrupted=interrupted)
+        wall = time.perf_counter() - start
+        frontier = frontier_summary(config, bisections)
+        rows = read_runs(runs_path)
+        paths = [out / SWEEP_JSON, runs_path]
+        atomic_write_json(out / FRONTIER_JSON, frontier)
+        paths.append(out / FRONTIER_JSON)
+        paths.extend(plot_frontiers(frontier, out))
+        result = SweepResult(frontier=frontier, paths=(), trials_total=len(rows), trials_new=new,
+                             trials_resumed=replayed, wall_time_s=wall)
+        report = format_report(config, frontier, result, rows, command_line=command_line, backend=backend,
+                               workers=workers, started_at=started_at, code=code, previous_code=previous_code)
+        atomic_write_bytes(out / REPORT_MD, report.encode())
+        paths.append(out / REPORT_MD)
+        return SweepResult(frontier=frontier, paths=tuple(paths), trials_total=len(rows), trials_new=new,
+                           trials_resumed=replayed, wall_time_s=wall)
 
 
 # ---------------------------------------------------------------------------------------------

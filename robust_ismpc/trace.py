@@ -149,6 +149,10 @@ class TraceRecorder:
             self._data[k][self._n] = v
         self._n += 1
 
+    def last_time_s(self) -> float | None:
+        """Time of the last recorded tick [s] (None before the first)."""
+        return float(self._data["t_s"][self._n - 1]) if self._n else None
+
     def finish(self, plan, meta: dict) -> Trace:
         """Freeze into a :class:`Trace` with the final footstep plan ``plan``."""
         channels = {k: v[: self._n].copy() for k, v in self._data.items()}

@@ -22,14 +22,14 @@ BAD_RUN_ARGS = [
     (["--force", "a,b"], "is not a list of numbers"),
     (["--force", "10,0@3"], "the window must be T0:T1"),
     (["--force", "10,0@3:1"], "must be after its start"),
-    (["--force", "10,0@-1:2"], "t_start_s must be >= 0"),
+    (["--force", "10,0@-1:2"], "--force '10,0@-1:2': the start time must be >= 0 s"),
     (["--push", "10,0"], "expected FX,FY@T:DUR"),
     (["--push", "10,0@1:0"], "duration must be > 0 s"),
     (["--push", "10,nan@1:0.1"], "values must be finite"),
     (["--seed", "-1"], "seed must be an integer >= 0"),
     (["--seed", "1.5"], "seed must be an integer >= 0"),
-    (["--delta-max", "-0.1"], "delta max must be a finite number >= 0"),
-    (["--whole-body", "torque"], "needs the mujoco simulator"),
+    (["--controller", "robust", "--delta-max", "-0.1"], "delta max must be a finite number >= 0"),
+    (["--whole-body", "torque"], "--whole-body torque needs --sim mujoco"),
     (["--whole-body", "stiff"], "invalid choice: 'stiff'"),
 ]
 
@@ -105,19 +105,19 @@ def test_calibrate_writes_the_fit_and_its_figure(tmp_path, capsys):
 
 
 BAD_OTHER_ARGS = [
-    (["run", "--controller", "robust", "--delta-max", "5", "--duration", "1"], "the largest guaranteed delta_max"),
+    (["run", "--controller", "robust", "--delta-max", "5", "--duration", "1"], "the largest guaranteed --delta-max"),
     (["run", "--sim", "mujoco", "--robot", "hrp4", "--duration", "1"], "robots available with --sim mujoco: g1, op3"),
     (["compare", "paper-nothing"], "scenarios are: paper-bag, paper-ball, paper-push"),
     (["compare", "paper-ball", "--vx", "0.3"], "--vx is not allowed"),
     (["soak", "--vx", "nan"], "vx must be finite"),
     (["soak", "--minutes", "0"], "minutes must be a finite number > 0"),
     (["soak", "--sim", "gazebo"], "unknown simulator 'gazebo'"),
-    (["soak", "--push-max", "-3"], "push_max_n must be a finite number >= 0"),
+    (["soak", "--push-max", "-3"], "--push-max must be a finite number >= 0"),
     (["soak", "--modules", "foo"], "unknown module 'foo'"),
     (["sweep", "--controllers", "nominal,zzz", "--impulse-max", "10"], "unknown controller 'zzz'"),
-    (["sweep", "--impulse-max", "-10"], "impulse_max_ns must be a finite number > 0"),
-    (["bench", "--horizons", "0"], "--horizons must be >= 2 samples"),
-    (["bench", "--cycles", "5"], "--cycles must be >= 10"),
+    (["sweep", "--impulse-max", "-10"], "--impulse-max must be a finite number > 0"),
+    (["bench", "--horizons", "0"], "--horizons must be between 2 and 1000 samples"),
+    (["bench", "--cycles", "5"], "--cycles must be between 10 and 100000"),
     (["calibrate", "--robot", "nao"], "unknown robot 'nao'"),
     (["calibrate", "--vx", "0", "--duration", "3"], "no forward swing motion"),
 ]

@@ -134,9 +134,9 @@ def test_bad_config_raises_parameter_error(changes, message):
 
 
 @pytest.mark.parametrize("extra,message", [
-    (["--impulse-max", "0"], "impulse_max_ns must be a finite number > 0"),
+    (["--impulse-max", "0"], "--impulse-max must be a finite number > 0"),
     (["--impulse-max", "abc"], "impulse-max must be a number"),
-    (["--impulse-max", "5", "--force-max", "-1"], "force_max_n must be a finite number > 0"),
+    (["--impulse-max", "5", "--force-max", "-1"], "--force-max must be a finite number > 0"),
     (["--impulse-max", "5", "--controllers", "nominal,fancy"], "unknown controller 'fancy'"),
     (["--impulse-max", "5", "--direction", "0,east"], "'east' is not a number"),
     (["--impulse-max", "5", "--phase", "0:1"], "START:STOP:STEPS"),

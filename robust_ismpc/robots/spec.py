@@ -37,12 +37,13 @@ _FRAME_TYPES = ("site", "body")
 
 
 def _as_vec3(owner: str, name: str, value: Any) -> tuple[float, float, float]:
+    """``owner`` ends with ``.`` (an attribute) or ``: `` (a key of a file)."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ParameterError(f"{owner}.{name} must be 3 numbers [m], got {value!r}") from None
+        raise ParameterError(f"{owner}{name} must be 3 numbers [m], got {value!r}") from None
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{owner}.{name} must be 3 finite numbers [m], got {value!r}")
+        raise ParameterError(f"{owner}{name} must be 3 finite numbers [m], got {value!r}")
     return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
@@ -131,9 +132,9 @@ class RobotSpec:
                 raise ParameterError(f"{owner}.{attr} must be a non-empty string, got {value!r}")
         if self.left_foot == self.right_foot:
             raise ParameterError(f"{owner}: left_foot and right_foot are both {self.left_foot!r}")
-        object.__setattr__(self, "left_sole_offset_m", _as_vec3(owner, "left_sole_offset_m", self.left_sole_offset_m))
+        object.__setattr__(self, "left_sole_offset_m", _as_vec3(f"{owner}.", "left_sole_offset_m", self.left_sole_offset_m))
         object.__setattr__(
-            self, "right_sole_offset_m", _as_vec3(owner, "right_sole_offset_m", self.right_sole_offset_m)
+            self, "right_sole_offset_m", _as_vec3(f"{owner}.", "right_sole_offset_m", self.right_sole_offset_m)
         )
         for attr in ("sole_length_m", "sole_width_m", "mass_kg", "com_height_m", "foot_spacing_m", "base_height_m"):
             check_positive(owner, **{attr: getattr(self, attr)})
@@ -331,6 +332,14 @@ _REQUIRED_KEYS = (
 _OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m")
 
 
+def _toml_number(toml_path: Path, key: str, value: Any) -> float:
+    """``value`` of ``key`` in a robot file as a float; ParameterError naming the file and key
+    if it is not a number (its range is checked where it is used)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(f"{toml_path}: {key} must be a number, got {value!r}")
+    return float(value)
+
+
 def _resolve_model_path(toml_path: Path, table: dict[str, Any]) -> Path:
     model = table["model"]
     if not isinstance(model, str) or not model:
@@ -450,18 +459,19 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     posture_table = table.get("standing_posture", {})
     if not isinstance(posture_table, dict):
         raise ParameterError(f"{toml_path}: standing_posture must be a table joint = angle [rad]")
-    posture = tuple((str(k), float(v)) for k, v in posture_table.items())
+    posture = tuple((str(k), _toml_number(toml_path, f"standing_posture.{k}", v)) for k, v in posture_table.items())
     gait = table.get("gait", {})
     if not isinstance(gait, dict):
         raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
-    gait_overrides = tuple((str(k), float(v)) for k, v in gait.items())
+    gait_overrides = tuple((str(k), _toml_number(toml_path, f"gait.{k}", v)) for k, v in gait.items())
     outline_value = table.get("sole_outline_m", [])
     try:
         sole_outline = tuple((float(x), float(y)) for x, y in outline_value)
     except (TypeError, ValueError):
         raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
+    sole_size = {key: _toml_number(toml_path, key, table[key]) for key in ("sole_length_m", "sole_width_m")}
 
-    owner = f"{toml_path.name}"
+    owner = f"{toml_path}: "
     offsets = (
         _as_vec3(owner, "left_sole_offset_m", table["left_sole_offset_m"]),
         _as_vec3(owner, "right_sole_offset_m", table["right_sole_offset_m"]),
@@ -484,8 +494,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
         foot_frame_type=frame_type,
         left_sole_offset_m=offsets[0],
         right_sole_offset_m=offsets[1],
-        sole_length_m=table["sole_length_m"],
-        sole_width_m=table["sole_width_m"],
+        **sole_size,
         leg_joints=tuple(leg_joints),
         standing_posture=posture,
         gait_overrides=gait_overrides,

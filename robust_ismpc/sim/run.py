@@ -33,6 +33,7 @@ import numpy as np
 
 from ..controller import check_dcm_error_envelope
 from ..exceptions import ControllerFailure, ParameterError, SolverError
+from ..lip_sim import INTERRUPTED
 from ..params import check_fraction, check_nonnegative
 from ..planner import plan_footsteps
 from ..report import summarize
@@ -42,10 +43,11 @@ from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
 from .disturbances import Force, SceneMonitor, scene_forces
+from .instability import simulation_failure
 from .inverse_dynamics import TorqueControlSettings
 from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
 from .mujoco_robot import FallCriteria, distance_outside
-from .video import VideoRecorder, VideoSettings
+from .video import open_frame_sink
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -279,6 +281,7 @@ def run_mujoco_spec(
     video_path=None,
     settings: WalkSettings | None = None,
     scene_items=(),
+    viewer: bool = False,
 ) -> RunResult:
     """Run ``spec`` on the full robot in MuJoCo and return its summary and trace.
 
@@ -296,6 +299,8 @@ def run_mujoco_spec(
         Objects added to the scene (:mod:`robust_ismpc.sim.disturbances`); their holding forces
         are added to the disturbances and ``summary["scene"]`` reports what they did
         (:class:`~robust_ismpc.sim.disturbances.SceneMonitor`).
+    viewer : bool
+        Show the run in MuJoCo's interactive viewer (:func:`~robust_ismpc.sim.video.open_frame_sink`).
 
     Returns
     -------
@@ -358,8 +363,8 @@ def run_mujoco_spec(
         stabilizer = ComStabilizer(robot, settings.com_feedback_gain, settings.com_feedback_damping_s)
     recorder = TraceRecorder(n_ticks + 2)
     video = None
-    if video_path is not None:
-        video = VideoRecorder(sim.model, VideoSettings(path=video_path), robot_spec.root_body)
+    if video_path is not None or viewer:
+        video = open_frame_sink(sim.model, robot_spec.root_body, video_path, viewer, spec.controller_label)
     failure: str | None = None
     fell = False
     t_meas = t_ctrl = t_ik = t_phys = t_rec = t_render = 0.0
@@ -392,6 +397,8 @@ def run_mujoco_spec(
                 break
             d = time.perf_counter()
             force, render_s = sim.advance(video)
+            if (failure := simulation_failure(sim.data, t_s + dt)) is not None:
+                break
             if monitor is not None:
                 monitor.update(sim.data, float(sim.data.time))
             e = time.perf_counter()
@@ -423,12 +430,14 @@ def run_mujoco_spec(
                 break
             if progress is not None and k % progress_every == 0:
                 progress(t_s)
+    except KeyboardInterrupt:  # Ctrl-C (raised by progress at a tick boundary): keep what ran
+        failure = INTERRUPTED
     finally:
         if video is not None:
             video.close()
     wall = time.perf_counter() - wall_start
     duration = float(sim.data.time)
-    fell = fell or failure is not None
+    fell = fell or (failure is not None and failure != INTERRUPTED)
     meta = run_meta(spec, params)
     meta["fell"] = fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)

@@ -1,4 +1,10 @@
-"""Offscreen video of a MuJoCo run: frames from ``mujoco.Renderer``, mp4 through imageio.
+"""Offscreen video of a MuJoCo run: frames from ``mujoco.Renderer``, mp4 through imageio; or the
+interactive viewer (``ismpc run --viewer``).
+
+Each frame carries a small overlay (:func:`draw_overlay`): the simulated time, the controller, and
+while an external force acts on the robot an arrow in its direction as the camera sees it. The
+mp4 is written to a hidden temporary file and renamed when the recorder closes (also after
+Ctrl-C), so a killed run leaves no half-written ``video.mp4`` behind.
 
 Offscreen rendering needs an OpenGL backend chosen with the ``MUJOCO_GL`` environment variable
 *before mujoco is imported* (mujoco picks its GL context class at import). On a headless Linux
@@ -21,6 +27,7 @@ import mujoco
 import numpy as np
 
 from ..exceptions import ParameterError
+from ..io import temporary_path
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -70,6 +77,8 @@ class VideoSettings:
         Tracking camera placement relative to the tracked body.
     track_body : str or None
         Body followed by the camera; None means the robot's root body.
+    label : str
+        Shown in the overlay next to the time (e.g. the controller).
     shadows, reflections, multisampling : bool
         Costly effects, off by default: with Mesa's software rasteriser a 640 x 480 G1 frame
         renders at about 23 frames/s without them and 4 frames/s with all three.
@@ -83,6 +92,7 @@ class VideoSettings:
     azimuth_deg: float = 135.0
     elevation_deg: float = -15.0
     track_body: str | None = None
+    label: str = ""
     shadows: bool = False
     reflections: bool = False
     multisampling: bool = False
@@ -145,8 +155,9 @@ class VideoRecorder:
         cam.elevation = settings.elevation_deg
         self._camera = cam
         settings.path.parent.mkdir(parents=True, exist_ok=True)
+        self._partial_path = temporary_path(settings.path)
         self._writer = imageio.get_writer(
-            str(settings.path), fps=settings.fps, codec="libx264", quality=7, macro_block_size=8
+            str(self._partial_path), fps=settings.fps, codec="libx264", quality=7, macro_block_size=8
         )
         self.frame_count = 0
         self.render_time_s = 0.0
@@ -160,7 +171,7 @@ class VideoRecorder:
         """Render the current state and append it to the video; returns the frame (H, W, 3) uint8."""
         start = time.perf_counter()
         self._renderer.update_scene(data, camera=self._camera)
-        frame = self._renderer.render()
+        frame = draw_overlay(self._renderer.render(), data, self.settings.label, self._camera)
         self._writer.append_data(frame)
         self.render_time_s += time.perf_counter() - start
         self.frame_count += 1
@@ -178,11 +189,15 @@ class VideoRecorder:
         return self.frame_count / self.render_time_s if self.render_time_s > 0 else 0.0
 
     def close(self) -> None:
-        """Finish the mp4 file and free the renderer."""
+        """Finish the mp4 file (renamed from its temporary name) and free the renderer."""
         if self._writer is not None:
-            self._writer.close()
-            self._writer = None
-            self._renderer.close()
+            writer, self._writer = self._writer, None
+            try:
+                writer.close()
+                os.replace(self._partial_path, self.settings.path)
+            finally:
+                self._partial_path.unlink(missing_ok=True)
+                self._renderer.close()
             logger.info("wrote %d frames to %s", self.frame_count, self.settings.path)
 
     def __enter__(self) -> VideoRecorder:
@@ -190,3 +205,135 @@ class VideoRecorder:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _applied_force_n(data: mujoco.MjData) -> np.ndarray:
+    """Sum of the external forces on all bodies (``xfrc_applied``), world frame [N], shape (3,)."""
+    return np.asarray(data.xfrc_applied)[:, :3].sum(axis=0)
+
+
+def draw_overlay(frame: np.ndarray, data: mujoco.MjData, label: str, camera: mujoco.MjvCamera,
+                 min_force_n: float = 0.5) -> np.ndarray:
+    """Write the time and ``label`` in the top-left corner of ``frame`` and, while an external
+    force acts, an arrow from the image centre (the tracked body) in the force's direction as
+    seen by ``camera``, with its magnitude. Returns a new (H, W, 3) uint8 frame (Pillow, which
+    imageio requires, draws)."""
+    from PIL import Image, ImageDraw
+
+    image = Image.fromarray(np.ascontiguousarray(frame))
+    draw = ImageDraw.Draw(image)
+    text = f"t = {data.time:5.2f} s" + (f"   {label}" if label else "")
+    draw.rectangle((4, 4, 12 + 6 * len(text), 20), fill=(0, 0, 0))
+    draw.text((8, 7), text, fill=(255, 255, 255))
+    force = _applied_force_n(data)
+    magnitude = float(np.hypot(force[0], force[1]))
+    if magnitude >= min_force_n:
+        az, el = np.radians(camera.azimuth), np.radians(camera.elevation)
+        right = np.array([np.sin(az), -np.cos(az)])
+        forward = np.array([np.cos(az), np.sin(az)])
+        direction = np.array([force[:2] @ right, np.sin(el) * (force[:2] @ forward)])  # image x right, y down
+        norm = float(np.hypot(*direction))
+        if norm > 1e-9:
+            height, width = frame.shape[:2]
+            centre = np.array([width / 2, height / 2])
+            tip = centre + direction / norm * 0.18 * min(width, height)
+            colour = (230, 40, 40)
+            draw.line((*centre, *tip), fill=colour, width=4)
+            back = -direction / norm * 12
+            side = np.array([-back[1], back[0]]) * 0.5
+            draw.polygon([tuple(tip), tuple(tip + back + side), tuple(tip + back - side)], fill=colour)
+            draw.text((tip[0] + 6, tip[1] - 6), f"{magnitude:.0f} N", fill=colour)
+    return np.asarray(image)
+
+
+def check_viewer() -> None:
+    """Raise ParameterError unless an interactive viewer can open (a display is set)."""
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise ParameterError(
+            "--viewer needs a display (neither DISPLAY nor WAYLAND_DISPLAY is set); on a machine "
+            "without one, record the run with --video instead"
+        )
+
+
+class ViewerSink:
+    """MuJoCo's passive interactive viewer, fed like a :class:`VideoRecorder` (``due``,
+    ``capture``, ``close``) and paced to real time. Closing its window stops the run as if
+    Ctrl-C had been pressed."""
+
+    def __init__(self, model: mujoco.MjModel, fps: int = 60) -> None:
+        self._model = model
+        self._period_s = 1.0 / fps
+        self._handle = None
+        self._next_frame_t_s = 0.0
+        self._start: tuple[float, float] | None = None
+        self.frame_count = 0
+        self.render_time_s = 0.0
+
+    def due(self, t_s: float) -> bool:
+        return t_s + 1e-9 >= self._next_frame_t_s
+
+    def capture(self, data: mujoco.MjData) -> None:
+        import mujoco.viewer
+
+        start = time.perf_counter()
+        if self._handle is None:
+            self._handle = mujoco.viewer.launch_passive(self._model, data)
+            self._start = (start, float(data.time))
+        if not self._handle.is_running():
+            raise KeyboardInterrupt  # the window was closed
+        wall0, sim0 = self._start
+        ahead = (data.time - sim0) - (start - wall0)
+        if ahead > 0:
+            time.sleep(ahead)
+        self._handle.sync()
+        self.frame_count += 1
+        self._next_frame_t_s += self._period_s
+        self.render_time_s += time.perf_counter() - start
+
+    @property
+    def frames_per_second(self) -> float:
+        return self.frame_count / self.render_time_s if self.render_time_s > 0 else 0.0
+
+    def close(self) -> None:
+        if self._handle is not None:
+            self._handle.close()
+            self._handle = None
+
+
+class _Both:
+    """A video and the viewer at once."""
+
+    def __init__(self, video: VideoRecorder, viewer: ViewerSink) -> None:
+        self.video, self.viewer = video, viewer
+
+    def due(self, t_s: float) -> bool:
+        return self.video.due(t_s) or self.viewer.due(t_s)
+
+    def capture(self, data: mujoco.MjData) -> None:
+        for sink in (self.video, self.viewer):
+            if sink.due(data.time):
+                sink.capture(data)
+
+    @property
+    def frame_count(self) -> int:
+        return self.video.frame_count
+
+    @property
+    def frames_per_second(self) -> float:
+        return self.video.frames_per_second
+
+    def close(self) -> None:
+        try:
+            self.video.close()
+        finally:
+            self.viewer.close()
+
+
+def open_frame_sink(model: mujoco.MjModel, root_body: str, video_path=None, viewer: bool = False, label: str = ""):
+    """What the MuJoCo loop hands its frames to: a :class:`VideoRecorder` writing ``video_path``
+    (overlay ``label``), the interactive :class:`ViewerSink`, or both."""
+    video = VideoRecorder(model, VideoSettings(path=video_path, label=label), root_body) if video_path else None
+    if not viewer:
+        return video
+    check_viewer()
+    return ViewerSink(model) if video is None else _Both(video, ViewerSink(model))

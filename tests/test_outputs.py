@@ -1,0 +1,108 @@
+"""Output helpers: readable figures of long runs, the video overlay, links of the docs (issue 17,
+cases 13-15)."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robust_ismpc.plotting import DETAIL_S, OVERVIEW_POINTS, detail_window, plot_run
+from robust_ismpc.trace import CHANNELS, Trace
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _walk_trace(duration_s: float, dt: float = 0.01) -> Trace:
+    """A synthetic straight walk at 0.2 m/s (every channel filled)."""
+    t = np.arange(0.0, duration_s, dt)
+    channels = {k: np.zeros((len(t), *shape)) for k, shape in CHANNELS.items()}
+    channels["t_s"] = t
+    channels["com_m"][:, 0] = 0.2 * t
+    channels["zmp_m"][:, 0] = 0.2 * t
+    channels["box_centre_m"][:, 0] = 0.2 * t
+    channels["box_half_m"][:] = 0.02
+    channels["feasibility_m"][:] = np.nan
+    channels["sole_meas_m"][:] = np.nan  # as on the LIP
+    n_steps = int(duration_s / 0.7) + 3
+    touchdown = 0.7 * np.arange(n_steps)
+    side = np.where(np.arange(n_steps) % 2 == 0, 1.0, -1.0)
+    steps = np.column_stack([0.14 * np.arange(n_steps), 0.1 * side])
+    return Trace(channels=channels, footsteps_m=steps, candidate_footsteps_m=steps, footstep_touchdown_s=touchdown,
+                 footstep_side=side, footstep_yaw_rad=np.zeros(n_steps),
+                 meta={"robot": "g1", "sim": "lip", "controller": "nominal", "sole_length_m": 0.17,
+                       "sole_width_m": 0.05})
+
+
+def test_long_run_figure_shows_the_last_seconds_and_an_overview(tmp_path, monkeypatch):
+    """Case 15: a 600 s run is drawn over its last 20 s (top view and time axes) with a decimated
+    overview of the whole run; a 10 s run is drawn whole."""
+    import matplotlib.figure
+
+    figures = []
+    original = matplotlib.figure.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        figures.append(fig)
+        return original(fig, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep)
+    long_run = _walk_trace(600.0)
+    assert detail_window(long_run) == pytest.approx((600.0 - 0.01 - DETAIL_S, 600.0 - 0.01))
+    assert detail_window(_walk_trace(10.0)) == pytest.approx((0.0, 9.99))
+    plot_run(long_run, tmp_path / "gait.png")
+    top, ax_x, _, _, overview = figures[-1].axes
+    assert top.get_xlim()[1] - top.get_xlim()[0] < 10.0  # metres: the last 20 s at 0.2 m/s, not 120 m
+    assert ax_x.get_xlim()[0] > 570.0
+    assert overview.get_xlim()[0] < 10.0 and overview.get_xlim()[1] > 590.0
+    assert max(len(line.get_xdata()) for line in overview.lines) <= OVERVIEW_POINTS
+    plot_run(_walk_trace(10.0), tmp_path / "short.png")
+    assert len(figures[-1].axes) == 4
+
+
+def test_video_overlay_draws_time_label_and_a_push_arrow():
+    """Case 14: the overlay writes text in the top-left corner, and a red arrow appears only while
+    an external force acts."""
+    mujoco = pytest.importorskip("mujoco")
+    pytest.importorskip("PIL")
+    from robust_ismpc.sim.video import draw_overlay
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    camera = mujoco.MjvCamera()
+    camera.azimuth, camera.elevation = 135.0, -15.0
+    blank = np.zeros((120, 160, 3), dtype=np.uint8)
+    quiet = draw_overlay(blank, data, "robust", camera)
+    assert quiet[4:20, 4:80].any() and not quiet[40:, :].any()
+    data.xfrc_applied[1, :3] = [0.0, 30.0, 0.0]
+    pushed = draw_overlay(blank, data, "robust", camera)
+    red = (pushed[..., 0] > 150) & (pushed[..., 1] < 100)
+    assert red[30:, :].sum() > 20
+    assert not ((quiet[..., 0] > 150) & (quiet[..., 1] < 100)).any()
+
+
+def _anchors(markdown: str) -> set[str]:
+    """GitHub anchors of the headings of a Markdown text."""
+    found = set()
+    for heading in re.findall(r"^#+\s+(.*)$", markdown, flags=re.M):
+        slug = re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+        found.add(slug)
+    return found
+
+
+@pytest.mark.parametrize("page", ["README.md", *sorted(p.relative_to(ROOT).as_posix()
+                                                       for p in (ROOT / "docs").glob("*.md"))])
+def test_links_of_the_docs_resolve(page):
+    """Case 13: every relative link of the README and the docs names an existing file and, with a
+    #fragment, an existing heading."""
+    path = ROOT / page
+    text = path.read_text()
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if re.match(r"[a-z]+://", target) or target.startswith("mailto:"):
+            continue
+        file_part, _, fragment = target.partition("#")
+        linked = (path.parent / file_part).resolve() if file_part else path
+        assert linked.exists(), f"{page}: {target} does not exist"
+        if fragment and linked.suffix == ".md":
+            assert fragment in _anchors(linked.read_text()), f"{page}: no heading for #{fragment} in {file_part}"
