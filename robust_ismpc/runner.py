@@ -193,9 +193,7 @@ def run(spec: RunSpec, progress=None, video_path=None, viewer: bool = False) -> 
     if spec.sim == "mujoco":
         from .sim.run import run_mujoco_spec
 
-        if viewer:
-            return run_mujoco_spec(spec, progress=progress, video_path=video_path, viewer=True)
-        return run_mujoco_spec(spec, progress=progress, video_path=video_path)
+        return run_mujoco_spec(spec, progress=progress, video_path=video_path, viewer=viewer)
     if video_path is not None or viewer:
         raise ParameterError("--video and --viewer need --sim mujoco (the LIP has nothing to show)")
     robot = robot_params(spec.robot)
