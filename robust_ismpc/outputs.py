@@ -27,7 +27,7 @@ from .io import is_temporary
 LOCK_NAME = ".lock"
 
 
-def _is_scratch(name: str) -> bool:
+def is_scratch(name: str) -> bool:
     """Files that do not make a folder "not empty": the lock and temporary leftovers."""
     return name == LOCK_NAME or is_temporary(name)
 
@@ -51,7 +51,7 @@ class OutputDir:
 
     def outputs(self) -> list[Path]:
         """Files and folders in the output folder, without the lock and temporary files."""
-        return sorted(p for p in self.path.iterdir() if not _is_scratch(p.name))
+        return sorted(p for p in self.path.iterdir() if not is_scratch(p.name))
 
     def release(self) -> None:
         """Remove the lock (and the folder, if this process created it and left it empty)."""

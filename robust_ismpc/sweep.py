@@ -50,7 +50,7 @@ import numpy as np
 from .exceptions import ParameterError
 from .forces import ForceWindow
 from .io import atomic_write_bytes, atomic_write_json
-from .outputs import _is_scratch, open_output_dir
+from .outputs import is_scratch, open_output_dir
 from .params import check_positive
 
 LOGGER = logging.getLogger("robust_ismpc")
@@ -932,7 +932,7 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> dict | None:
         raise ParameterError(f"--out {str(out)!r} exists and is not a directory")
     wanted = json.loads(json.dumps(config.to_dict()))
     previous = None
-    if out.exists() and any(not _is_scratch(p.name) for p in out.iterdir()):
+    if out.exists() and any(not is_scratch(p.name) for p in out.iterdir()):
         if overwrite:
             for name in OUTPUT_FILES:
                 (out / name).unlink(missing_ok=True)
