@@ -245,9 +245,8 @@ class IsmpcController:
         """
         com = np.asarray(com_pos_m, dtype=float).reshape(-1)[:2]
         vel = np.zeros(2) if com_vel_mps is None else np.asarray(com_vel_mps, float).reshape(-1)[:2]
-        if not (np.all(np.isfinite(com)) and np.all(np.isfinite(vel))):
-            raise ParameterError("reset: initial CoM position and velocity must be finite")
-        _check_call("reset", {"left_foot_m": left_foot_m, "right_foot_m": right_foot_m, "plan.pos_m": plan.pos_m})
+        _check_call("reset", {"com_pos_m": com, "com_vel_mps": vel, "left_foot_m": left_foot_m,
+                              "right_foot_m": right_foot_m, "plan.pos_m": plan.pos_m})
         self._last_step_t_s = math.nextafter(float(t_s), -math.inf)  # the first step may be at t_s
         self.plan = plan
         plan.step_at(t_s)  # raises PlanError if outside
