@@ -92,9 +92,8 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     p.add_argument("--video", action="store_true", help="mujoco only: also write an mp4 (offscreen rendering)")
     p.add_argument("--whole-body", default=None, choices=("servo", "torque"),
-                   help="mujoco only: servo (position servos play back the whole-body IK; the default, except "
-                        "for scenarios that name their own) or torque (an inverse-dynamics QP drives the joints; "
-                        "see docs/robots.md)")
+                   help="mujoco only: torque (an inverse-dynamics QP drives the joints; the default) or servo "
+                        "(position servos play back the whole-body IK; see docs/robots.md)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -147,8 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
     p_soak.add_argument("--modules", default="observer,restriction,timing",
                         help="controller modules (default: all three, the robust controller)")
-    p_soak.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                        help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
+    p_soak.add_argument("--whole-body", default=None, choices=("servo", "torque"),
+                        help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
 
@@ -210,8 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_sweep.add_argument("--pushed-step", type=int, default=4,
                          help="which regular step is pushed, 1 = the first (4)")
     p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
-    p_sweep.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                         help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
+    p_sweep.add_argument("--whole-body", default=None, choices=("servo", "torque"),
+                         help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
     p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
     p_sweep.add_argument("--out", required=True, help="output directory")
@@ -262,7 +261,7 @@ def _spec(args, modules: tuple[str, ...]):
     return RunSpec(
         robot=args.robot, sim=args.sim, modules=modules,
         command=WalkCommand(args.vx, args.vy, args.omega), duration_s=args.duration,
-        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body or "servo",
+        forces=_forces(args), seed=args.seed, delta_max_mps2=args.delta_max, whole_body=args.whole_body,
     )
 
 
@@ -341,13 +340,6 @@ def _compare_scenario(args) -> int:
     plot_comparison(traces, labels, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
-    envelope = comparison.get("dcm_error_envelope_m")
-    if envelope is not None:
-        (xl, xu), (yl, yu) = ([round(1e3 * v, 1) for v in row] for row in envelope)
-        first = {k: comparison[k]["first_dcm_correction_s"] for k in ("nominal", "robust")}
-        print(f"both MPCs adopt the measured DCM beyond the undisturbed walk's error envelope "
-              f"(x {xl} to {xu} mm, y {yl} to {yu} mm); first adopted at {first['nominal']} s (nominal), "
-              f"{first['robust']} s (robust)")
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"robust {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged max) "
           f"nominal {dev['nominal']} m, robust {dev['robust']} m; expected outcome: "
