@@ -186,14 +186,22 @@ class IsmpcController:
         self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
+        self.unplannable_cycles = 0  # cycles planned from a state short of the estimate
+        self._predicted_state: np.ndarray | None = None
         self.info = CycleInfo()
 
     # ------------------------------------------------------------------------------------
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
+        self._predicted_state = None
         if measurement is not None:
             com = np.asarray(measurement.com_pos_m, float)[:2]
             vel = np.asarray(measurement.com_vel_mps, float)[:2]
+            self._predicted_state = self.state[:2].copy()
             self.state[:2] = self.estimator.correct(self.state[:2], com, vel)
+        return self._state_for_mpc(t_s)
+
+    def _state_for_mpc(self, t_s: float) -> MpcState:
+        """The MPC's initial state from the model state and the disturbance in use."""
         dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
         return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
 
@@ -218,10 +226,36 @@ class IsmpcController:
         self._cop_offset_cache = (key, offset)
         return offset
 
+    def _solve_plannable(self, state: MpcState) -> MpcPlan:
+        """Solve from the estimated state; if that QP is infeasible, from the state moved half-way,
+        then all the way, back to the model's prediction (the measurement is adopted as far as the
+        MPC can plan from it; the whole body absorbs the rest)."""
+        try:
+            return self._solve_qp(state)
+        except InfeasibleMpc:
+            predicted = self._predicted_state
+            if predicted is None:
+                raise
+            estimated = self.state[:2].copy()
+            if np.allclose(estimated, predicted):
+                raise
+            for fraction in (0.5, 0.0):
+                self.state[:2] = predicted + fraction * (estimated - predicted)
+                retry = self._state_for_mpc(state.t_s)
+                try:
+                    result = self._solve_qp(retry)
+                except InfeasibleMpc:
+                    continue
+                self.unplannable_cycles += 1
+                self.info.dcm_m = retry.dcm_m
+                return result
+            self.state[:2] = estimated
+            raise
+
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""
         try:
-            result = self._solve_qp(state)
+            result = self._solve_plannable(state)
         except (InfeasibleMpc, SolverError) as exc:
             self.infeasible_count += 1
             self.fallback_cycles += 1

@@ -29,6 +29,7 @@ pressure to keep the CoM on its reference: it is the balance feedback the servo 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, fields
 
 import daqp
@@ -122,6 +123,11 @@ def _rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     return vec
 
 
+def _back_in_time(pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, lead_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity ``lead_s`` before a reference point, at constant acceleration."""
+    return pos - lead_s * vel + 0.5 * lead_s**2 * acc, vel - lead_s * acc
+
+
 def _yaw_matrix(yaw_rad: float) -> np.ndarray:
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -195,7 +201,13 @@ class InverseDynamicsQp:
         n = nv + 12
         mujoco.mj_fullM(m, d, self._M)
         M = self._M
-        bias = d.qfrc_bias - d.qfrc_passive
+        # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
+        jac_com = np.zeros((3, nv))
+        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        # the disturbance the plan was made for acts like a uniform field on the whole robot
+        import os
+        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0]) * float(os.environ.get('ID_W', '1'))
+        bias = d.qfrc_bias - d.qfrc_passive - self.robot.mass_kg * (jac_com.T @ disturbance)
         qvel = d.qvel
         feet = {"left": reference.left_foot, "right": reference.right_foot}
         if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
@@ -203,6 +215,9 @@ class InverseDynamicsQp:
                 dt = reference.t_s - self._foot_ref[0]
                 self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
             self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
+        # the reference is the state at the end of the control period: compare it with the
+        # current state at the current time
+        lead = max(0.0, reference.t_s - float(d.time)) if os.environ.get('ID_LEAD','1')=='1' else 0.0
         soles = {side: self.robot.sole_frame(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
@@ -227,22 +242,22 @@ class InverseDynamicsQp:
                 eq_rows.append(row)
                 eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
                 continue
-            target = real_anchor + (feet[side].pos_m - ref_anchor)
+            foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
+            target = real_anchor + (foot_pos - ref_anchor)
             linear = (self._foot_acc[side] + s.foot_kp * (target - soles[side][0])
-                      + s.foot_kd * (feet[side].vel_mps - velocity[:3]))
+                      + s.foot_kd * (foot_vel - velocity[:3]))
             angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
                        - s.foot_kd * velocity[3:])
             tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
-        # CoM (relative to the stance soles); J̇ q̇ by a backward difference of the Jacobian
-        jac_com = np.zeros((3, nv))
-        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
         com_vel = jac_com @ qvel
         jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None else (jac_com - self._jac_com_prev) / m.opt.timestep
         self._jac_com_prev = jac_com
-        com_target = real_anchor + (reference.com_pos_m - ref_anchor)
+        com_pos, com_vel_ref = _back_in_time(reference.com_pos_m, reference.com_vel_mps, reference.com_acc_mps2, lead)
+        com_target = real_anchor + (com_pos - ref_anchor)
         com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
-                   + s.com_kd * (reference.com_vel_mps - com_vel))
+                   + s.com_kd * (com_vel_ref - com_vel))
         row = np.zeros((3, n))
         row[:, :nv] = jac_com
         tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))

@@ -133,8 +133,8 @@ ROBOT_OBSERVER_POLES = (0.6, 0.7, 0.8)
 #: place walk 30 s instead of falling at 5.8, 8.8 and 14 s).
 WALK_SETTINGS: dict[str, WalkSettings] = {
     "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True,
-                       disturbance_average_strides=1.0, observer_poles=ROBOT_OBSERVER_POLES),
-    "op3": WalkSettings(disturbance_average_strides=1.0, observer_poles=ROBOT_OBSERVER_POLES, spin_corrected_zmp=False),
+                       observer_poles=ROBOT_OBSERVER_POLES),
+    "op3": WalkSettings(observer_poles=ROBOT_OBSERVER_POLES, spin_corrected_zmp=False),
 }
 
 
