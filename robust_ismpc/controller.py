@@ -292,7 +292,14 @@ class IsmpcController:
         if measurement is not None:
             sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
         if sole is not None:
-            plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+            import os
+            sole = np.asarray(sole, dtype=float)[:2]
+            if os.environ.get('ANCHOR_SHIFT','1')=='1':
+                # the model's CoM and ZMP keep their place relative to the new support
+                shift = sole - plan.pos_m[j]
+                self.state[0] += shift
+                self.state[2] += shift
+            plan.pos_m[j] = sole
             self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
             offset = plan.pos_m[j] - plan.candidate_pos_m[j]

@@ -243,12 +243,8 @@ class RobustIsmpcController(IsmpcController):
         if self.observer is None or measurement is None:
             return
         start = time.perf_counter()
-        import os
-        if os.environ.get('OBS_ZMP') == 'model':
-            zmp = self.state[2].copy()
-        else:
-            zmp = measurement.lip_zmp_m if measurement.lip_zmp_m is not None else measurement.zmp_m
-            zmp = None if zmp is None else np.asarray(zmp, float)[:2]
+        zmp = measurement.lip_zmp_m if measurement.lip_zmp_m is not None else measurement.zmp_m
+        zmp = None if zmp is None else np.asarray(zmp, float)[:2]
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.average.update(self.persistence.update(w_hat))

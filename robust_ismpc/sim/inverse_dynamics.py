@@ -164,6 +164,7 @@ class InverseDynamicsQp:
         nv = model.nv
         self._M = np.zeros((nv, nv))
         self._jac_com_prev: np.ndarray | None = None
+        self._ang_prev: np.ndarray | None = None
         # reference sole velocities of the previous control tick, for the swing acceleration
         self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
         self._foot_acc = {side: np.zeros(3) for side in SIDES}
@@ -261,6 +262,19 @@ class InverseDynamicsQp:
         row = np.zeros((3, n))
         row[:, :nv] = jac_com
         tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
+        # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
+        am_weight = float(os.environ.get('AM_W', '0'))
+        if am_weight > 0:
+            ang = np.zeros((3, nv))
+            mujoco.mj_angmomMat(m, d, ang, self._root)
+            ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
+            self._ang_prev = ang
+            scale = 1.0 / (self.robot.mass_kg * 9.81)
+            momentum = ang @ qvel
+            row = np.zeros((3, n))
+            row[:, :nv] = scale * ang
+            am_kd = float(os.environ.get('AM_KD', '10'))
+            tasks.append((row, scale * (-am_kd * momentum - ang_dot @ qvel), am_weight))
         # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
         root_rot = d.xmat[self._root].reshape(3, 3)
         target_rot = np.empty(9)

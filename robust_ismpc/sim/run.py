@@ -74,10 +74,6 @@ class WalkSettings:
     disturbance_feedforward : bool
         Servo playback only: servo torque feedforward of the planned disturbance force ``m ŵ``
         (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.disturbance_feedforward`).
-    spin_corrected_zmp : bool
-        Give the controller the measured CoP corrected for the robot's own angular-momentum rate
-        (:attr:`~robust_ismpc.reference.Measurement.lip_zmp_m`), which the disturbance observer
-        then uses instead of the raw CoP. False: the observer reads the raw CoP.
     disturbance_average_strides : float
         Moving-average window of the disturbance estimate, in strides of the robot's gait
         (:attr:`~robust_ismpc.robust.RobustParams.average_s`; 0: none).
@@ -96,7 +92,6 @@ class WalkSettings:
     foot_friction: float | None = None
     dynamic_feedforward: bool = False
     disturbance_feedforward: bool = True
-    spin_corrected_zmp: bool = True
     disturbance_average_strides: float = 0.0
     observer_poles: tuple[float, float, float] | None = None
     ik: IkSettings = field(default_factory=IkSettings)
@@ -131,10 +126,12 @@ ROBOT_OBSERVER_POLES = (0.6, 0.7, 0.8)
 #: robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the yaw stays within 0.1 rad. G1 uses the
 #: inverse-dynamics feedforward instead of the CoM stabiliser (sideways, turning and stepping in
 #: place walk 30 s instead of falling at 5.8, 8.8 and 14 s).
+ROBOT_ESTIMATOR = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5)
+
 WALK_SETTINGS: dict[str, WalkSettings] = {
     "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True,
-                       observer_poles=ROBOT_OBSERVER_POLES),
-    "op3": WalkSettings(observer_poles=ROBOT_OBSERVER_POLES, spin_corrected_zmp=False),
+                       observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
+    "op3": WalkSettings(observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
 }
 
 
@@ -262,7 +259,7 @@ def run_mujoco_spec(
         for k in range(n_ticks):
             t_s = k * dt
             a = time.perf_counter()
-            measurement, contacts = robot.measure(spin_corrected=settings.spin_corrected_zmp)
+            measurement, contacts = robot.measure()
             left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
             polygon = robot.support_polygon(contacts)
