@@ -246,6 +246,22 @@ class RobustIsmpcController(IsmpcController):
         zmp = measurement.lip_zmp_m if measurement.lip_zmp_m is not None else measurement.zmp_m
         zmp = None if zmp is None else np.asarray(zmp, float)[:2]
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
+        import os
+        tau = float(os.environ.get('DIRECT_W_TAU', '0'))
+        if tau > 0 and zmp is not None:
+            c = np.asarray(measurement.com_pos_m, float)[:2]
+            v = np.asarray(measurement.com_vel_mps, float)[:2]
+            contact_acc = self.eta**2 * (c - zmp)
+            prev = getattr(self, '_direct_prev', None)
+            if prev is None or prev[0] >= t_s:
+                self._direct_w = np.zeros(2)
+            else:
+                dt = t_s - prev[0]
+                w_meas = (v - prev[1]) / dt - 0.5 * (contact_acc + prev[2])
+                a = dt / (tau + dt)
+                self._direct_w = self._direct_w + a * (w_meas - self._direct_w)
+            self._direct_prev = (t_s, v, contact_acc)
+            w_hat = self._direct_w.copy()
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.average.update(self.persistence.update(w_hat))
         self.fresh_disturbance_mps2 = self.fresh_average.update(w_hat)  # w̃ follows in _mpc_state
