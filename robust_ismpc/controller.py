@@ -237,10 +237,13 @@ class IsmpcController:
             if predicted is None:
                 raise
             estimated = self.state[:2].copy()
-            if np.allclose(estimated, predicted):
+            disturbance = self.disturbance_mps2.copy()
+            previous_w = self._previous_disturbance
+            if np.allclose(estimated, predicted) and np.allclose(disturbance, previous_w):
                 raise
             for fraction in (0.5, 0.0):
                 self.state[:2] = predicted + fraction * (estimated - predicted)
+                self.disturbance_mps2 = previous_w + fraction * (disturbance - previous_w)
                 retry = self._state_for_mpc(state.t_s)
                 try:
                     result = self._solve_qp(retry)
@@ -250,6 +253,7 @@ class IsmpcController:
                 self.info.dcm_m = retry.dcm_m
                 return result
             self.state[:2] = estimated
+            self.disturbance_mps2 = disturbance
             raise
 
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
@@ -348,6 +352,7 @@ class IsmpcController:
             values += [v for v in (measurement.zmp_m, measurement.lip_zmp_m) if v is not None]
             if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
+        self._previous_disturbance = self.disturbance_mps2.copy()
         self._anchor_landed(t_s, measurement)
         self._before_cycle(t_s, measurement)
         state = self._mpc_state(t_s, measurement)

@@ -173,6 +173,10 @@ class RobustIsmpcController(IsmpcController):
             raise ParameterError(f"unknown module {unknown[0]!r}; modules are: {', '.join(MODULES)}")
         self.modules = frozenset(modules)
         params = params if params is not None else RobustParams()
+        import os
+        if os.environ.get('RP_OVERRIDE'):
+            import ast
+            params = replace(params, **ast.literal_eval(os.environ['RP_OVERRIDE']))
         if delta_max_mps2 is not None:
             params = replace(params, delta_max_mps2=delta_max_mps2)
         self.robust_params = params
