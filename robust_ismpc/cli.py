@@ -109,7 +109,7 @@ def _spec(args, modules: tuple[str, ...]):
     spec = RunSpec(
         robot=args.robot, sim=args.sim, modules=modules, duration_s=args.duration,
         forces=tuple(w for _, _, w in forces), seed=args.seed, delta_max_mps2=args.delta_max,
-        whole_body=args.whole_body or "servo",
+        whole_body=args.whole_body,
     )
     check_forces_in_run(forces, args.duration)
     requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}
@@ -226,13 +226,6 @@ def _compare_scenario(args) -> int:
     plot_comparison(traces, names, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
-    envelope = comparison.get("dcm_error_envelope_m")
-    if envelope is not None:
-        (xl, xu), (yl, yu) = ([round(1e3 * v, 1) for v in row] for row in envelope)
-        first = {k: comparison[k]["first_dcm_correction_s"] for k in ("nominal", "robust")}
-        print(f"both MPCs adopt the measured DCM beyond the undisturbed walk's error envelope "
-              f"(x {xl} to {xu} mm, y {yl} to {yu} mm); first adopted at {first['nominal']} s (nominal), "
-              f"{first['robust']} s ({labels['robust']})")
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"{labels['robust']} {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged "
           f"max) nominal {dev['nominal']} m, {labels['robust']} {dev['robust']} m; expected outcome: "

@@ -104,9 +104,8 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
         p.add_argument("--viewer", action="store_true",
                        help="mujoco only: watch the run in MuJoCo's interactive viewer (needs a display)")
     p.add_argument("--whole-body", default=None, choices=("servo", "torque"),
-                   help="mujoco only: servo (position servos play back the whole-body IK; the default, except "
-                        "for scenarios that name their own) or torque (an inverse-dynamics QP drives the joints; "
-                        "see docs/robots.md)")
+                   help="mujoco only: torque (an inverse-dynamics QP drives the joints; the default) or servo "
+                        "(position servos play back the whole-body IK; see docs/robots.md)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -160,8 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
     p_soak.add_argument("--modules", default="observer,restriction,timing",
                         help="controller modules (default: all three, the robust controller)")
-    p_soak.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                        help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
+    p_soak.add_argument("--whole-body", default=None, choices=("servo", "torque"),
+                        help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
     p_soak.add_argument("--out", required=True, help="output directory")
     p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     p_soak.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -225,8 +224,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_sweep.add_argument("--pushed-step", type=int, default=4,
                          help="which regular step is pushed, 1 = the first (4)")
     p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
-    p_sweep.add_argument("--whole-body", default="servo", choices=("servo", "torque"),
-                         help="mujoco only: servo (default) or torque (inverse-dynamics QP)")
+    p_sweep.add_argument("--whole-body", default=None, choices=("servo", "torque"),
+                        help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
     p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
     p_sweep.add_argument("--out", required=True, help="output directory")

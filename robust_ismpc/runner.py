@@ -26,9 +26,18 @@ SIMS = ("lip", "mujoco")
 WHOLE_BODY_CONTROLS = ("servo", "torque")
 
 
-def check_whole_body(owner: str, whole_body, sim: str = "mujoco") -> None:
-    """Raise ParameterError unless ``whole_body`` is one of :data:`WHOLE_BODY_CONTROLS` and,
-    when it is not ``servo``, ``sim`` is mujoco (the LIP has no joints)."""
+def resolve_whole_body(owner: str, whole_body, sim: str = "mujoco") -> str:
+    """The whole-body control of a run: ``whole_body`` checked, or for None the default,
+    ``torque`` on MuJoCo (``servo`` on the LIP, which has no joints).
+
+    Raises
+    ------
+    ParameterError
+        ``whole_body`` is not None or one of :data:`WHOLE_BODY_CONTROLS`, or it is ``torque``
+        on the LIP.
+    """
+    if whole_body is None:
+        return "torque" if sim == "mujoco" else "servo"
     if whole_body not in WHOLE_BODY_CONTROLS:
         raise ParameterError(
             f"{owner}.whole_body must be one of {', '.join(WHOLE_BODY_CONTROLS)} (whole-body control), "
@@ -38,6 +47,7 @@ def check_whole_body(owner: str, whole_body, sim: str = "mujoco") -> None:
         raise ParameterError(
             f"{owner}: whole-body control {whole_body!r} needs the mujoco simulator (the LIP has no joints)"
         )
+    return whole_body
 
 
 def parse_modules(controller: str, modules: str | None = None) -> tuple[str, ...]:
@@ -81,10 +91,10 @@ class RunSpec:
         Deviation bound Δmax for the restriction [m/s²] (None: module default).
     mpc : MpcParams
         MPC settings.
-    whole_body : str
-        MuJoCo only: ``servo`` (the model's position servos play back the whole-body IK, the
-        default) or ``torque`` (an inverse-dynamics QP drives torque motors,
-        :mod:`robust_ismpc.sim.inverse_dynamics`).
+    whole_body : str or None
+        MuJoCo only: ``torque`` (an inverse-dynamics QP drives torque motors,
+        :mod:`robust_ismpc.sim.inverse_dynamics`; the default) or ``servo`` (the model's
+        position servos play back the whole-body IK). None is resolved to the default.
     """
 
     robot: str = "g1"
@@ -96,12 +106,12 @@ class RunSpec:
     seed: int = 0
     delta_max_mps2: float | None = None
     mpc: MpcParams = field(default_factory=MpcParams)
-    whole_body: str = "servo"
+    whole_body: str | None = None
 
     def __post_init__(self) -> None:
         if self.sim not in SIMS:
             raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
-        check_whole_body("RunSpec", self.whole_body, self.sim)
+        object.__setattr__(self, "whole_body", resolve_whole_body("RunSpec", self.whole_body, self.sim))
         robot_params(self.robot)  # validates the name
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
@@ -132,20 +142,19 @@ class RunResult:
     trace: Trace
 
 
-def make_controller(robot: RobotParams, spec: RunSpec, state_feedback_gain: float = 1.0,
-                    **controller_options) -> IsmpcController:
+def make_controller(robot: RobotParams, spec: RunSpec, **controller_options) -> IsmpcController:
     """The controller for ``spec``: nominal IS-MPC plus the requested modules.
 
-    ``controller_options`` go to the controller (``velocity_feedback_gain``,
-    ``anchor_landed_footsteps``, and for the robust one ``params``).
+    ``controller_options`` go to the controller (``estimator``, and for the robust one
+    ``params``).
     """
     if not spec.modules:
-        return IsmpcController(robot, spec.mpc, state_feedback_gain=state_feedback_gain, **controller_options)
+        return IsmpcController(robot, spec.mpc, **controller_options)
     from .robust import RobustIsmpcController
 
     return RobustIsmpcController(
         robot, spec.mpc, modules=spec.modules, delta_max_mps2=spec.delta_max_mps2,
-        state_feedback_gain=state_feedback_gain, **controller_options,
+        **controller_options,
     )
 
 

@@ -251,17 +251,6 @@ class Scenario:
     expect : str
         ``falls``: expected outcome = robust survives and nominal falls; ``deviates``: robust
         survives and nominal falls or deviates from the path (see :func:`expected_outcome`).
-    whole_body : str
-        Whole-body control of both runs, ``servo`` or ``torque``
-        (:attr:`~robust_ismpc.runner.RunSpec.whole_body`; ``ismpc compare --whole-body`` overrides it).
-    measured_dcm : bool
-        Let both controllers' MPC see the measured DCM: an undisturbed run of the same walk
-        (same robot, command, duration and whole body, no forces, no scene objects) first
-        records the range of the whole body's DCM tracking error, and both runs then adopt into
-        their internal model whatever error lies outside it
-        (:attr:`~robust_ismpc.sim.run.WalkSettings.dcm_error_envelope_m`). The simulation is
-        deterministic, so before the disturbance the runs stay inside the range and nothing is
-        adopted. False: the MPC runs on its internal model only (the robots' default).
     """
 
     name: str
@@ -276,8 +265,6 @@ class Scenario:
     ball: BallSpec | None = None
     variation: Variation = field(default_factory=Variation)
     expect: str = "falls"
-    whole_body: str = "servo"
-    measured_dcm: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.name, str) and self.name):
@@ -295,13 +282,8 @@ class Scenario:
                 raise ParameterError(f"Scenario.forces must hold ScaledForce, got {f!r}")
         if self.expect not in ("falls", "deviates"):
             raise ParameterError(f"Scenario.expect must be 'falls' or 'deviates', got {self.expect!r}")
-        if not isinstance(self.measured_dcm, bool):
-            raise ParameterError(f"Scenario.measured_dcm must be True or False, got {self.measured_dcm!r}")
         if self.ball is not None and abs(self.command.omega_radps) > 0:
             raise ParameterError("Scenario: the ball placement assumes a walk without turning")
-        from .runner import check_whole_body
-
-        check_whole_body("Scenario", self.whole_body)  # scenarios run on MuJoCo
 
 
 #: Criterion of ``expect="deviates"``: the robust path deviation must stay below this (it keeps
@@ -339,10 +321,6 @@ SCENARIOS: dict[str, Scenario] = {
             robust_modules=("timing",),
             ball=BallSpec(),
             variation=Variation(time_s=0.02, magnitude_fraction=0.1),
-            # The paper's MPC sees the measured state; ours runs on its internal model, which
-            # no push reaches without the observer (this scenario has none). Both controllers
-            # adopt the DCM error beyond what the undisturbed walk shows (docs/scenarios.md).
-            measured_dcm=True,
         ),
         Scenario(
             name="paper-push",
@@ -362,11 +340,6 @@ SCENARIOS: dict[str, Scenario] = {
                 ScaledForce(0.0, 85.0, 40.0, 6.0, 0.1, jitter=True),
             ),
             variation=Variation(time_s=0.2, magnitude_fraction=0.1),
-            # The paper's HRP-4 code drives its joints exactly (DART acceleration joints, spec
-            # §15.1); G1's position servos playing back the IK cannot hold the constant push even
-            # with a perfect estimate (both fall at 4.3-4.4 s), the inverse-dynamics layer can
-            # (docs/scenarios.md, both measured). Chosen after measuring both.
-            whole_body="torque",
         ),
     )
 }
@@ -483,8 +456,7 @@ def _reference_com(robot_spec, spec: RunSpec, t_s: float) -> np.ndarray:
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
     plan = plan_footsteps(params, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
                           left0.pos_m[:2], right0.pos_m[:2], yaw0)
-    controller = make_controller(params, replace(spec, modules=()), state_feedback_gain=0.0,
-                                 velocity_feedback_gain=0.0, anchor_landed_footsteps=False)
+    controller = make_controller(params, replace(spec, modules=()))
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
     dt = spec.mpc.sampling_period_s
     reference = None
@@ -697,9 +669,6 @@ def comparison_metrics(run: ScenarioRun, results: dict[str, RunResult]) -> dict:
             entry.update(_timing_after(trace, event_s))
         if "scene" in s:
             entry["scene"] = s["scene"]
-        if "dcm_corrections" in s:
-            entry["dcm_corrections"] = s["dcm_corrections"]
-            entry["first_dcm_correction_s"] = s["first_dcm_correction_s"]
         out[label] = entry
     out["expected_outcome"] = expected_outcome(scenario, out)
     out["robust_survives_nominal_fails"] = bool(not out["robust"]["fell"] and out["nominal"]["fell"])
@@ -770,64 +739,30 @@ def run_scenario(
         Write ``video_dir/<label>/video.mp4`` for each run.
     whole_body : str or None
         ``servo`` or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`); None (default):
-        the scenario's own (:attr:`Scenario.whole_body`).
+        the run specs' default.
     """
     from pathlib import Path
 
-    from .sim.run import run_mujoco_spec, walk_settings
+    from .sim.run import run_mujoco_spec
 
     if isinstance(scenario, str):
         scenario = get_scenario(scenario)
     if duration_s is not None:
         scenario = replace(scenario, duration_s=duration_s)
     realised = realise(scenario, seed, extra_forces)
-    whole_body = scenario.whole_body if whole_body is None else whole_body
-    settings = None
-    envelope = None
-    if scenario.measured_dcm:
-        envelope = measure_dcm_error_envelope(
-            replace(realised.nominal, whole_body=whole_body),
-            progress=progress("undisturbed (DCM error envelope)") if progress is not None else None,
-        )
-        settings = replace(walk_settings(scenario.robot), dcm_error_envelope_m=envelope)
     results = {}
     for label, spec in (("nominal", realised.nominal), ("robust", realised.robust)):
-        spec = replace(spec, whole_body=whole_body)
+        if whole_body is not None:
+            spec = replace(spec, whole_body=whole_body)
         video = None
         if video_dir is not None:
             (Path(video_dir) / label).mkdir(parents=True, exist_ok=True)
             video = Path(video_dir) / label / "video.mp4"
         callback = progress(label) if progress is not None else None
-        result = run_mujoco_spec(spec, progress=callback, video_path=video, scene_items=realised.scene_items,
-                                 settings=settings)
+        result = run_mujoco_spec(spec, progress=callback, video_path=video, scene_items=realised.scene_items)
         result.trace.meta["scenario"] = scenario.name
         result.summary["scenario"] = scenario.name
         results[label] = result
     comparison = comparison_metrics(realised, results)
-    comparison["whole_body"] = whole_body
-    comparison["dcm_error_envelope_m"] = envelope
+    comparison["whole_body"] = results["nominal"].summary["whole_body"]
     return ScenarioResult(run=realised, results=results, comparison=comparison)
-
-
-def measure_dcm_error_envelope(spec: RunSpec, progress: Callable[[float], None] | None = None) -> list[list[float]]:
-    """Range of the whole body's DCM tracking error on an undisturbed run of ``spec``'s walk.
-
-    Runs ``spec`` in MuJoCo without forces or scene objects (the nominal controller) and
-    returns ``summary.json["dcm_error_range_m"]``: ``[[x_lower, x_upper], [y_lower, y_upper]]``
-    [m] in the stance footstep's frame (:meth:`~robust_ismpc.controller.IsmpcController.measured_dcm_error`).
-
-    Raises
-    ------
-    ParameterError
-        The run had no single support to measure, or fell.
-    """
-    from .sim.run import run_mujoco_spec
-
-    result = run_mujoco_spec(replace(spec, modules=(), forces=()), progress=progress)
-    envelope = result.summary["dcm_error_range_m"]
-    if result.summary["fell"] or envelope is None:
-        raise ParameterError(
-            f"measured_dcm: the undisturbed {spec.robot} walk gives no DCM error envelope "
-            f"(fell: {result.summary['fell']}, {result.summary['failure']}); lengthen the scenario"
-        )
-    return envelope

@@ -52,7 +52,8 @@ class SoakSpec:
     modules : tuple of str
         Controller modules (default: all three, the robust controller).
     whole_body : str
-        MuJoCo only: ``servo`` (default) or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`).
+        MuJoCo only: ``torque`` or ``servo`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`);
+        None is resolved to the default.
     """
 
     robot: str = "g1"
@@ -63,11 +64,12 @@ class SoakSpec:
     vx_mps: float | None = None
     seed: int = 0
     modules: tuple[str, ...] = MODULES
-    whole_body: str = "servo"
+    whole_body: str | None = None
 
     def __post_init__(self) -> None:
         robot_params(self.robot)
-        RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body)  # validates both
+        run = RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body)  # validates both
+        object.__setattr__(self, "whole_body", run.whole_body)
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"soak duration must be > 0 s, got {self.duration_s!r}")
         lo, hi = self.push_interval_s

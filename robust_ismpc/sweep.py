@@ -239,8 +239,9 @@ class SweepConfig:
         Which regular step is pushed (1 = the first step after the start-up double support).
     seed : int
         Base seed; every trial's seed derives from it and the trial key (:func:`trial_seed`).
-    whole_body : str
-        MuJoCo only: ``servo`` or ``torque`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`).
+    whole_body : str or None
+        MuJoCo only: ``torque`` or ``servo`` (:attr:`~robust_ismpc.runner.RunSpec.whole_body`);
+        None is resolved to the default.
     """
 
     robot: str = "g1"
@@ -256,7 +257,7 @@ class SweepConfig:
     iterations: int = 8
     pushed_step: int = 4
     seed: int = 0
-    whole_body: str = "servo"
+    whole_body: str | None = None
 
     def __post_init__(self) -> None:
         owner = "SweepConfig"
@@ -286,9 +287,9 @@ class SweepConfig:
             raise ParameterError(f"{owner}.pushed_step must be an integer >= 1, got {self.pushed_step!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"{owner}.seed must be an integer >= 0, got {self.seed!r}")
-        from .runner import check_whole_body
+        from .runner import resolve_whole_body
 
-        check_whole_body(owner, self.whole_body, self.sim)
+        object.__setattr__(self, "whole_body", resolve_whole_body(owner, self.whole_body, self.sim))
 
     # -----------------------------------------------------------------------------------------
     @property
@@ -421,7 +422,7 @@ class Trial:
     push_duration_s: float
     duration_s: float
     seed: int
-    whole_body: str = "servo"
+    whole_body: str | None = None
 
     def force_components(self) -> tuple[float, float]:
         """World-frame force (fx, fy) [N] of the push."""

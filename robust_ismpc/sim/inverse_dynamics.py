@@ -29,6 +29,7 @@ pressure to keep the CoM on its reference: it is the balance feedback the servo 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, fields
 
 import daqp
@@ -76,6 +77,13 @@ class TorqueControlSettings:
         Smallest normal force of a sole in contact [N].
     regularisation : float
         ε, small weight on every variable.
+    friction_smoothing_radps : float
+        The joints' dry friction (MuJoCo ``frictionloss``, which the QP's dynamics leave out) is
+        compensated by ``τ_f tanh(v / v_s)`` with ``v`` the joint velocity the solution reaches
+        at the end of the physics step and ``v_s`` this value [rad/s]; 0 switches the
+        compensation off. Without it G1's 0.3 N m joint friction left 40 % of a small lateral
+        CoM acceleration unrealised in double support, and a closed loop on the measured CoM
+        drifted to the edge of the ZMP box within 1.4 s (docs/closed-loop.md).
     """
 
     com_kp: float = 50.0
@@ -87,7 +95,7 @@ class TorqueControlSettings:
     posture_kp: float = 400.0
     posture_kd: float = 40.0
     contact_damping: float = 10.0
-    com_weight: float = 10.0
+    com_weight: float = 1000.0
     foot_weight: float = 10.0
     root_weight: float = 1.0
     posture_weight: float = 0.1
@@ -96,6 +104,7 @@ class TorqueControlSettings:
     torsion_m: float = 0.02
     min_normal_force_n: float = 1.0
     regularisation: float = 1e-6
+    friction_smoothing_radps: float = 0.02
 
     def __post_init__(self) -> None:
         check_nonnegative("TorqueControlSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
@@ -112,6 +121,11 @@ def _rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     vec = np.empty(3)
     mujoco.mju_quat2Vel(vec, quat, 1.0)
     return vec
+
+
+def _back_in_time(pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, lead_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity ``lead_s`` before a reference point, at constant acceleration."""
+    return pos - lead_s * vel + 0.5 * lead_s**2 * acc, vel - lead_s * acc
 
 
 def _yaw_matrix(yaw_rad: float) -> np.ndarray:
@@ -141,6 +155,7 @@ class InverseDynamicsQp:
         self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
         self._root = robot.root_id
         self._dof = actuators.sim_dof_index
+        self._friction_nm = model.dof_frictionloss[self._dof].copy()
         self._limits = np.where(
             model.jnt_actfrclimited[model.dof_jntid[self._dof]][:, None],
             model.jnt_actfrcrange[model.dof_jntid[self._dof]],
@@ -149,6 +164,7 @@ class InverseDynamicsQp:
         nv = model.nv
         self._M = np.zeros((nv, nv))
         self._jac_com_prev: np.ndarray | None = None
+        self._ang_prev: np.ndarray | None = None
         # reference sole velocities of the previous control tick, for the swing acceleration
         self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
         self._foot_acc = {side: np.zeros(3) for side in SIDES}
@@ -186,7 +202,13 @@ class InverseDynamicsQp:
         n = nv + 12
         mujoco.mj_fullM(m, d, self._M)
         M = self._M
-        bias = d.qfrc_bias - d.qfrc_passive
+        # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
+        jac_com = np.zeros((3, nv))
+        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        # the disturbance the plan was made for acts like a uniform field on the whole robot
+        import os
+        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0]) * float(os.environ.get('ID_W', '1'))
+        bias = d.qfrc_bias - d.qfrc_passive - self.robot.mass_kg * (jac_com.T @ disturbance)
         qvel = d.qvel
         feet = {"left": reference.left_foot, "right": reference.right_foot}
         if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
@@ -194,6 +216,9 @@ class InverseDynamicsQp:
                 dt = reference.t_s - self._foot_ref[0]
                 self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
             self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
+        # the reference is the state at the end of the control period: compare it with the
+        # current state at the current time
+        lead = max(0.0, reference.t_s - float(d.time)) if os.environ.get('ID_LEAD','1')=='1' else 0.0
         soles = {side: self.robot.sole_frame(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
@@ -218,25 +243,38 @@ class InverseDynamicsQp:
                 eq_rows.append(row)
                 eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
                 continue
-            target = real_anchor + (feet[side].pos_m - ref_anchor)
+            foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
+            target = real_anchor + (foot_pos - ref_anchor)
             linear = (self._foot_acc[side] + s.foot_kp * (target - soles[side][0])
-                      + s.foot_kd * (feet[side].vel_mps - velocity[:3]))
+                      + s.foot_kd * (foot_vel - velocity[:3]))
             angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
                        - s.foot_kd * velocity[3:])
             tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
-        # CoM (relative to the stance soles); J̇ q̇ by a backward difference of the Jacobian
-        jac_com = np.zeros((3, nv))
-        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
         com_vel = jac_com @ qvel
         jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None else (jac_com - self._jac_com_prev) / m.opt.timestep
         self._jac_com_prev = jac_com
-        com_target = real_anchor + (reference.com_pos_m - ref_anchor)
+        com_pos, com_vel_ref = _back_in_time(reference.com_pos_m, reference.com_vel_mps, reference.com_acc_mps2, lead)
+        com_target = real_anchor + (com_pos - ref_anchor)
         com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
-                   + s.com_kd * (reference.com_vel_mps - com_vel))
+                   + s.com_kd * (com_vel_ref - com_vel))
         row = np.zeros((3, n))
         row[:, :nv] = jac_com
         tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
+        # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
+        am_weight = float(os.environ.get('AM_W', '0'))
+        if am_weight > 0:
+            ang = np.zeros((3, nv))
+            mujoco.mj_angmomMat(m, d, ang, self._root)
+            ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
+            self._ang_prev = ang
+            scale = 1.0 / (self.robot.mass_kg * 9.81)
+            momentum = ang @ qvel
+            row = np.zeros((3, n))
+            row[:, :nv] = scale * ang
+            am_kd = float(os.environ.get('AM_KD', '10'))
+            tasks.append((row, scale * (-am_kd * momentum - ang_dot @ qvel), am_weight))
         # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
         root_rot = d.xmat[self._root].reshape(3, 3)
         target_rot = np.empty(9)
@@ -308,6 +346,10 @@ class InverseDynamicsQp:
                 raise SolverError(f"inverse-dynamics QP failed {self.failures} times (DAQP exit flag {flag})")
             return self.last_torques_nm
         self.last_torques_nm = torque_rows @ x + torque_bias
+        if s.friction_smoothing_radps > 0:
+            velocity_next = qvel[self._dof] + m.opt.timestep * x[:nv][self._dof]
+            self.last_torques_nm = self.last_torques_nm + self._friction_nm * np.tanh(
+                velocity_next / s.friction_smoothing_radps)
         self.last_qacc = x[:nv].copy()
         self.last_wrenches = {"left": x[nv:nv + 6].copy(), "right": x[nv + 6:].copy()}
         return self.last_torques_nm

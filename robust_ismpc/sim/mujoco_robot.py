@@ -63,6 +63,8 @@ class ContactState:
         Centre of pressure of each foot on the floor [m]; None without contact.
     cop_m : ndarray, shape (2,), or None
         Centre of pressure of all foot contacts (the measured ZMP) [m]; None without contact.
+    horizontal_force_n : ndarray, shape (2,)
+        Sum of the horizontal (x, y) contact forces on both feet [N], world frame.
     """
 
     left_force_n: float
@@ -72,6 +74,7 @@ class ContactState:
     left_cop_m: np.ndarray | None
     right_cop_m: np.ndarray | None
     cop_m: np.ndarray | None
+    horizontal_force_n: np.ndarray
 
 
 def _yaw_of(rot: np.ndarray) -> float:
@@ -249,7 +252,6 @@ class MujocoRobot:
         self._is_ground[self._ground_geoms] = True
         self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
-        self._last_momentum: tuple[float, np.ndarray, np.ndarray] | None = None
 
     def foot_geom_ids(self) -> np.ndarray:
         """Ids of the geoms of both feet that can touch the floor (contype or conaffinity set)."""
@@ -348,6 +350,7 @@ class MujocoRobot:
         """
         m, d = self.model, self.data
         fz = np.zeros(2)
+        horizontal = np.zeros(2)
         moment = np.zeros((2, 2))  # per side: sum(p_xy f_z - p_z f_xy)
         for i in range(d.ncon):
             con = d.contact[i]
@@ -365,6 +368,7 @@ class MujocoRobot:
                 continue
             p = con.pos
             fz[side] += force[2]
+            horizontal += force[:2]
             moment[side] += p[:2] * force[2] - p[2] * force[:2]
         in_contact = fz > self.contact_threshold_n
         cops: list[np.ndarray | None] = [moment[s] / fz[s] if in_contact[s] else None for s in range(2)]
@@ -378,6 +382,7 @@ class MujocoRobot:
             left_cop_m=cops[0],
             right_cop_m=cops[1],
             cop_m=cop,
+            horizontal_force_n=horizontal,
         )
 
     def support_polygon(self, contacts: ContactState | None = None) -> np.ndarray:
@@ -398,49 +403,29 @@ class MujocoRobot:
         return convex_hull(np.vstack(corners))
 
     # ------------------------------------------------------------------ measurement
-    def measure(self, forward: bool = True, spin_corrected: bool = True) -> tuple[Measurement, ContactState]:
+    def measure(self, forward: bool = True) -> tuple[Measurement, ContactState]:
         """The controller's measurement and the contact state.
+
+        ``lip_zmp_m`` is the ZMP of the equivalent LIP: the point where the LIP's ZMP would be
+        for its CoM to feel the measured horizontal contact force,
+        ``c - f_xy / (m η²)`` with ``η² = g / h`` (``h`` the robot's LIP CoM height). Whatever
+        else accelerates the CoM (a push, a load) is then the LIP's disturbance, while the robot's
+        own motion (swinging legs, spinning torso) is not.
 
         Parameters
         ----------
         forward : bool
             Run ``mj_forward`` first so that positions, velocities and contact forces all refer
             to the current state (cheap; leave True unless the caller just did it).
-        spin_corrected : bool
-            Also give ``lip_zmp_m``, the CoP corrected for the robot's angular-momentum rate
-            (False: None, and the angular momentum is not computed). Its rate is a difference
-            between successive calls, so keep the choice fixed over a run.
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
-        motion = self._body_motion()
-        com, vel = self._com_of(*motion[:2])
+        com, vel = self._com_of(*self._body_motion()[:2])
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
-        lip_zmp = None
-        rate = self._angular_momentum_rate(self._angular_momentum_of(*motion, com, vel)) if spin_corrected else None
-        normal_n = contacts.left_force_n + contacts.right_force_n
-        if rate is not None and zmp is not None and normal_n > 0.0:
-            without_spin = zmp + np.array([rate[1], -rate[0]]) / normal_n
-            # the LIP's eta^2 = g / h: scale the lever so that eta^2 (c - p) = (f_z / (m z_c)) (c - p_spin)
-            scale = normal_n * self.spec.com_height_m / (self.mass_kg * GRAVITY_MPS2 * max(com[2], 1e-3))
-            lip_zmp = com[:2] - scale * (com[:2] - without_spin)
+        eta_squared = GRAVITY_MPS2 / self.spec.com_height_m
+        lip_zmp = com[:2] - contacts.horizontal_force_n / (self.mass_kg * eta_squared)
         return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, lip_zmp_m=lip_zmp), contacts
-
-    def _angular_momentum_rate(self, momentum: np.ndarray) -> np.ndarray:
-        """L̇ about the CoM [N m], shape (3,), given the current ``momentum``: backward difference
-        since the previous call at an earlier time.
-
-        Zero on the first call and after the time went back (a reset); a second call at the same
-        time returns the same rate.
-        """
-        t_s = float(self.data.time)
-        last = self._last_momentum
-        if last is None or t_s < last[0]:
-            self._last_momentum = (t_s, momentum, np.zeros(3))
-        elif t_s > last[0]:
-            self._last_momentum = (t_s, momentum, (momentum - last[1]) / (t_s - last[0]))
-        return self._last_momentum[2]
 
 
 @dataclass(frozen=True)

@@ -31,14 +31,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..controller import check_dcm_error_envelope
+from ..estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..lip_sim import INTERRUPTED
-from ..params import check_fraction, check_nonnegative
+from ..params import check_nonnegative
 from ..planner import plan_footsteps
 from ..report import summarize
 from ..robots.spec import BUILTIN_ROBOTS, load_robot
-from ..robust import RobustParams, check_dcm_band
+from ..robust import RobustParams
 from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
@@ -61,60 +61,21 @@ COP_TOLERANCE_M = 1e-3
 class WalkSettings:
     """Closed-loop settings of one robot walking in MuJoCo.
 
+    Both controllers' MPC starts every cycle from the state estimator's CoM and CoM velocity
+    (:mod:`robust_ismpc.estimator`), and every landed footstep is moved to the measured sole.
+
     Attributes
     ----------
-    state_feedback_gain : float
-        Blend of the measured CoM into the MPC state each cycle, in [0, 1] (see
-        :class:`~robust_ismpc.controller.IsmpcController`). 0 by default: with position servos
-        the robot realises CoM *positions*; a measured state that lags the one-tick prediction
-        resets the model's velocity every tick, the reference CoM stops moving while the ZMP
-        runs to the box edge, and the QP turns infeasible within 1-3 s (G1 and OP3 with gains
-        0.02 to 1, before the first step). Feedback goes through :class:`ComStabilizer`.
-        Still true with the separate velocity gain at 0: position gains 0.02 to 0.3 make the
-        G1 QP infeasible at 2.7 to 3.6 s (first steps).
-    velocity_feedback_gain : float
-        Blend of the measured CoM velocity into the MPC state, in [0, 1].
-    path_feedback_gain : float
-        Feedback of where the feet really land, in [0, 1]
-        (:class:`~robust_ismpc.controller.IsmpcController` ``path_feedback_gain``; at most 2 cm
-        per step). 0.7 on both robots: carrying the bag (paper-bag, seeds 0-5) the robust OP3
-        kept within 2.0-2.8 cm of the path instead of drifting 31-35 cm, and walked 30 s where it
-        had fallen at 17-18 s after drifting 41-46 cm (seeds 0 and 3).
-    anchor_landed_footsteps : bool
-        Move each landed footstep of the plan to the measured sole (the measurement always
-        carries the soles). Off: with the open-loop LIP model (gains 0) the moved ZMP box no
-        longer matches the model's DCM and the QP turns infeasible (G1 forward 0.2 m/s:
-        infeasible at 4.05 s instead of walking 18 s).
+    estimator : EstimatorParams
+        Noise model of the state estimator (default: the measured CoM and velocity as they are).
     foot_friction : float or None
         Simulation setting: sliding friction of the foot contact geoms (None: the model's).
-    com_feedback_gain : float
-        K of :class:`ComStabilizer` (CoM error relative to the stance sole) [-].
-    com_feedback_damping_s : float
-        D of :class:`ComStabilizer` (CoM velocity error) [s].
     dynamic_feedforward : bool
-        Inverse-dynamics and servo-damping feedforward of the IK reference motion
-        (:class:`~robust_ismpc.sim.mujoco_loop.LoopSettings`). Needs a smooth IK reference: use it
-        with ``com_feedback_gain = com_feedback_damping_s = 0``.
-    measured_dcm_band_m : tuple of float or None
-        Dead band (x, y) [m] of the measured DCM error that the step timing check adds to the
-        MPC's DCM (:attr:`~robust_ismpc.robust.RobustParams.measured_dcm_band_m`); None: the
-        timing module sees the internal model only.
-    dcm_error_envelope_m : array_like, shape (2, 2), or None
-        Envelope of the whole body's DCM tracking error beyond which the MPC's internal model
-        adopts the measured DCM (:class:`~robust_ismpc.controller.IsmpcController`
-        ``dcm_error_envelope_m``; rows sagittal, lateral; columns lower, upper [m]). It depends on
-        the walk (OP3 undisturbed, 0.15 m/s forward: sagittal -6.7 to +2.3 mm; backward -3.8 to
-        +5.9 mm; sideways several centimetres), so no robot has one by default: a scenario measures it
-        with an undisturbed run of its own walk (``summary.json["dcm_error_range_m"]``) and
-        passes it to both controllers (paper-ball, docs/scenarios.md). Not together with
-        ``measured_dcm_band_m``.
+        Servo playback only: inverse-dynamics and servo-damping feedforward of the IK reference
+        motion (:class:`~robust_ismpc.sim.mujoco_loop.LoopSettings`).
     disturbance_feedforward : bool
-        Servo torque feedforward of the planned disturbance force ``m ŵ``
+        Servo playback only: servo torque feedforward of the planned disturbance force ``m ŵ``
         (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.disturbance_feedforward`).
-    spin_corrected_zmp : bool
-        Give the controller the measured CoP corrected for the robot's own angular-momentum rate
-        (:attr:`~robust_ismpc.reference.Measurement.lip_zmp_m`), which the disturbance observer
-        then uses instead of the raw CoP. False: the observer reads the raw CoP.
     disturbance_average_strides : float
         Moving-average window of the disturbance estimate, in strides of the robot's gait
         (:attr:`~robust_ismpc.robust.RobustParams.average_s`; 0: none).
@@ -122,41 +83,27 @@ class WalkSettings:
         Observer error poles on this robot (None: the
         :class:`~robust_ismpc.robust.RobustParams` default).
     ik : IkSettings
-        Whole-body IK weights.
+        Whole-body IK weights (the posture reference of both whole-body controls).
     fall : FallCriteria
         When the robot counts as fallen.
-    torque_control : TorqueControlSettings or None
-        Drive the joints with an inverse-dynamics QP instead of the position servos
-        (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.torque_control`); ``RunSpec.whole_body
-        = "torque"`` sets the defaults. None on both robots by default.
+    torque_control : TorqueControlSettings
+        Gains of the inverse-dynamics QP (``RunSpec.whole_body = "torque"``, the default).
     """
 
-    state_feedback_gain: float = 0.0
-    velocity_feedback_gain: float = 0.0
-    path_feedback_gain: float = 0.7
-    anchor_landed_footsteps: bool = False
+    estimator: EstimatorParams = field(default_factory=EstimatorParams)
     foot_friction: float | None = None
-    com_feedback_gain: float = 1.0
-    com_feedback_damping_s: float = 0.05
     dynamic_feedforward: bool = False
     disturbance_feedforward: bool = True
-    spin_corrected_zmp: bool = True
-    measured_dcm_band_m: tuple[float, float] | None = None
-    dcm_error_envelope_m: tuple[tuple[float, float], tuple[float, float]] | None = None
     disturbance_average_strides: float = 0.0
     observer_poles: tuple[float, float, float] | None = None
     ik: IkSettings = field(default_factory=IkSettings)
     fall: FallCriteria = field(default_factory=FallCriteria)
-    torque_control: TorqueControlSettings | None = None
+    torque_control: TorqueControlSettings = field(default_factory=TorqueControlSettings)
 
     def __post_init__(self) -> None:
-        check_fraction("WalkSettings", state_feedback_gain=self.state_feedback_gain,
-                       velocity_feedback_gain=self.velocity_feedback_gain, path_feedback_gain=self.path_feedback_gain)
         check_nonnegative("WalkSettings", disturbance_average_strides=self.disturbance_average_strides)
-        check_dcm_band("WalkSettings", self.measured_dcm_band_m)
-        check_dcm_error_envelope("WalkSettings", self.dcm_error_envelope_m)
-        if self.measured_dcm_band_m is not None and self.dcm_error_envelope_m is not None:
-            raise ParameterError("WalkSettings: use measured_dcm_band_m or dcm_error_envelope_m, not both")
+        if not isinstance(self.estimator, EstimatorParams):
+            raise ParameterError(f"WalkSettings.estimator must be EstimatorParams, got {type(self.estimator).__name__}")
 
 
 #: Observer poles on the full robots: the reference code's (0.6, 0.7, 0.8), slower than the LIP
@@ -181,10 +128,12 @@ ROBOT_OBSERVER_POLES = (0.6, 0.7, 0.8)
 #: robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the yaw stays within 0.1 rad. G1 uses the
 #: inverse-dynamics feedforward instead of the CoM stabiliser (sideways, turning and stepping in
 #: place walk 30 s instead of falling at 5.8, 8.8 and 14 s).
+ROBOT_ESTIMATOR = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5)
+
 WALK_SETTINGS: dict[str, WalkSettings] = {
-    "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True, com_feedback_gain=0.0, com_feedback_damping_s=0.0,
-                       disturbance_average_strides=1.0, observer_poles=ROBOT_OBSERVER_POLES),
-    "op3": WalkSettings(disturbance_average_strides=1.0, observer_poles=ROBOT_OBSERVER_POLES, spin_corrected_zmp=False),
+    "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True,
+                       observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
+    "op3": WalkSettings(observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
 }
 
 
@@ -212,60 +161,9 @@ class TickTimes:
         }
 
 
-def dcm_error_range(controller) -> list[list[float]] | None:
-    """Range of the DCM tracking error the controller saw in single support, as
-    ``[[x_lower, x_upper], [y_lower, y_upper]]`` [m] in the stance footstep's frame, rounded
-    outwards to the micrometre so that it still holds every error seen (None: no single support
-    with measured soles)."""
-    rng = controller.dcm_error_range_m
-    if not np.all(np.isfinite(rng)):
-        return None
-    micrometres = np.column_stack([np.floor(rng[:, 0] * 1e6), np.ceil(rng[:, 1] * 1e6)])
-    return (micrometres / 1e6).tolist()
-
-
 def walk_settings(robot: str) -> WalkSettings:
     """Closed-loop settings of a built-in robot (defaults for others)."""
     return WALK_SETTINGS.get(robot, WalkSettings())
-
-
-class ComStabilizer:
-    """CoM feedback relative to the stance foot, applied to the IK CoM target.
-
-    The IK reference configuration realises the reference CoM relative to the reference
-    soles; on the real robot the stance foot rolls, the servos give and the feet slip, so the
-    measured CoM relative to the *measured* stance sole drifts from the reference one. With
-    ``e`` that error (position) and ``ė`` its rate, the IK receives the CoM target
-    ``c_ref - K e - D ė``.
-    """
-
-    def __init__(self, robot, gain: float, damping_s: float) -> None:
-        self.robot = robot
-        self.gain = gain
-        self.damping_s = damping_s
-        self.previous = None
-
-    def _anchor(self, reference, measured: bool) -> np.ndarray:
-        """Mean of the feet in contact in ``reference``: measured soles or reference soles."""
-        feet = []
-        for side, foot in (("left", reference.left_foot), ("right", reference.right_foot)):
-            if foot.in_contact:
-                feet.append(self.robot.sole_pose(side).pos_m[:2] if measured else foot.pos_m[:2])
-        return np.mean(feet, axis=0)
-
-    def command(self, reference, measurement):
-        """IK reference for this tick: ``reference`` with the corrected CoM target."""
-        previous, self.previous = self.previous, reference
-        if previous is None:
-            return reference
-        error = (measurement.com_pos_m[:2] - self._anchor(previous, True)) - (
-            previous.com_pos_m[:2] - self._anchor(previous, False)
-        )
-        rate = measurement.com_vel_mps[:2] - previous.com_vel_mps[:2]
-        shift = -self.gain * error - self.damping_s * rate
-        com = reference.com_pos_m.copy()
-        com[:2] += shift
-        return replace(reference, com_pos_m=com)
 
 
 def _check_robot(name: str) -> None:
@@ -317,8 +215,6 @@ def run_mujoco_spec(
     """
     _check_robot(spec.robot)
     settings = settings if settings is not None else walk_settings(spec.robot)
-    if spec.whole_body == "torque" and settings.torque_control is None:
-        settings = replace(settings, torque_control=TorqueControlSettings())
     robot_spec = load_robot(spec.robot)
     params = robot_spec.params()
     dt = spec.mpc.sampling_period_s
@@ -333,23 +229,17 @@ def run_mujoco_spec(
     if spec.modules:
         poles = {"observer_poles": settings.observer_poles} if settings.observer_poles is not None else {}
         options["params"] = RobustParams(
-            measured_dcm_band_m=settings.measured_dcm_band_m,
             average_s=settings.disturbance_average_strides * 2.0 * params.T_step_s, **poles,
         )
-    controller = make_controller(
-        params, spec, state_feedback_gain=settings.state_feedback_gain,
-        velocity_feedback_gain=settings.velocity_feedback_gain,
-        anchor_landed_footsteps=settings.anchor_landed_footsteps,
-        path_feedback_gain=settings.path_feedback_gain, dcm_error_envelope_m=settings.dcm_error_envelope_m,
-        **options,
-    )
+    controller = make_controller(params, spec, estimator=settings.estimator, **options)
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
     loop = LoopSettings(
         control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=settings.foot_friction,
         dynamic_feedforward=settings.dynamic_feedforward,
-        disturbance_feedforward=settings.disturbance_feedforward, torque_control=settings.torque_control,
+        disturbance_feedforward=settings.disturbance_feedforward,
+        torque_control=settings.torque_control if spec.whole_body == "torque" else None,
     )
     forces += scene_forces(scene_items)
     sim = MujocoSimulation(robot_spec, disturbances=forces, scene_items=scene_items, settings=loop)
@@ -358,9 +248,6 @@ def run_mujoco_spec(
     robot = sim.robot
 
     n_ticks = int(math.floor(spec.duration_s / dt + 1e-9))
-    stabilizer = None
-    if settings.com_feedback_gain > 0 or settings.com_feedback_damping_s > 0:
-        stabilizer = ComStabilizer(robot, settings.com_feedback_gain, settings.com_feedback_damping_s)
     recorder = TraceRecorder(n_ticks + 2)
     video = None
     if video_path is not None or viewer:
@@ -377,7 +264,7 @@ def run_mujoco_spec(
         for k in range(n_ticks):
             t_s = k * dt
             a = time.perf_counter()
-            measurement, contacts = robot.measure(spin_corrected=settings.spin_corrected_zmp)
+            measurement, contacts = robot.measure()
             left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
             polygon = robot.support_polygon(contacts)
@@ -389,9 +276,8 @@ def run_mujoco_spec(
                 failure = f"{exc.reason}: {exc}"
                 break
             c = time.perf_counter()
-            command = stabilizer.command(reference, measurement) if stabilizer is not None else reference
             try:
-                sim.command(command)
+                sim.command(reference)
             except SolverError as exc:
                 failure = f"ik_failed: {exc}"
                 break
@@ -447,12 +333,6 @@ def run_mujoco_spec(
     times = TickTimes(t_meas, t_ctrl, t_ik, t_phys, t_rec, t_render)
     summary["time_per_tick_ms"] = times.per_tick_ms(ticks)
     summary["cop_outside_s"] = round(outside_ticks * dt, 4)
-    summary["state_feedback_gain"] = settings.state_feedback_gain
-    summary["dcm_error_range_m"] = dcm_error_range(controller)
-    summary["dcm_error_envelope_m"] = (None if controller.dcm_error_envelope_m is None
-                                       else controller.dcm_error_envelope_m.round(6).tolist())
-    summary["dcm_corrections"] = controller.dcm_corrections
-    summary["first_dcm_correction_s"] = controller.first_dcm_correction_s
     if monitor is not None:
         summary["scene"] = monitor.summary()
     if video is not None:
@@ -461,4 +341,4 @@ def run_mujoco_spec(
     return RunResult(summary=summary, trace=trace)
 
 
-__all__ = ["COP_TOLERANCE_M", "ComStabilizer", "TickTimes", "WALK_SETTINGS", "WalkSettings", "run_mujoco_spec", "walk_settings"]
+__all__ = ["COP_TOLERANCE_M", "TickTimes", "WALK_SETTINGS", "WalkSettings", "run_mujoco_spec", "walk_settings"]
