@@ -246,7 +246,7 @@ class IsmpcController:
             return self._solve_qp(state)
         except InfeasibleMpc:
             predicted = self._predicted_state
-            if predicted is None:
+            if predicted is None or self.estimator.params.exact:
                 raise
             estimated = self.state[:2].copy()
             disturbance = self.disturbance_mps2.copy()
@@ -308,13 +308,11 @@ class IsmpcController:
         if measurement is not None:
             sole = measurement.left_sole_m if side == LEFT else measurement.right_sole_m
         if sole is not None:
-            import os
             sole = np.asarray(sole, dtype=float)[:2]
-            if os.environ.get('ANCHOR_SHIFT','1')=='1':
-                # the model's CoM and ZMP keep their place relative to the new support
-                shift = sole - plan.pos_m[j]
-                self.state[0] += shift
-                self.state[2] += shift
+            # the model's CoM and ZMP keep their place relative to the new support
+            shift = sole - plan.pos_m[j]
+            self.state[0] += shift
+            self.state[2] += shift
             plan.pos_m[j] = sole
             self.feet[side].pos_m[:2] = plan.pos_m[j]  # the stance-foot reference follows
         if self.replan_on_landing:
@@ -365,7 +363,7 @@ class IsmpcController:
         self.info.build_time_s = self.info.solve_time_s = 0.0
         if measurement is not None:
             values = [measurement.com_pos_m, measurement.com_vel_mps]
-            values += [v for v in (measurement.zmp_m, measurement.lip_zmp_m) if v is not None]
+            values += [v for v in (measurement.zmp_m, measurement.contact_acc_mps2) if v is not None]
             if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
         self._previous_disturbance = self.disturbance_mps2.copy()

@@ -149,4 +149,63 @@ class StateEstimator:
         return predicted + self.gain @ innovation
 
 
-__all__ = ["EstimatorParams", "StateEstimator", "steady_state_gain"]
+class DisturbanceEstimator:
+    r"""The CoM acceleration the contacts do not explain, measured over each control period.
+
+    Between two measurements :math:`k-1` and :math:`k`, :math:`\delta` apart, Newton's law for the
+    horizontal CoM motion, :math:`m \ddot x_c = f_{xy} + m w`, averaged over the period gives
+
+    .. math::
+
+        w_k = \frac{\dot x_c^k - \dot x_c^{k-1}}{\delta} - \bar a_k,
+
+    with :math:`\bar a_k` the horizontal contact force per unit mass averaged over the period
+    (:attr:`~robust_ismpc.reference.Measurement.contact_acc_mps2`; on the LIP
+    :math:`\eta^2 (x_c - x_z)` averaged). Nothing else enters: a robot's own swinging and spinning
+    move its centre of pressure, not its CoM's acceleration, so undisturbed the estimate stays
+    near zero, and a push shows at the next measurement. The raw value is low-pass filtered with
+    time constant ``time_constant_s`` (the estimate of a 0.1 s push ends about that long after
+    the push).
+
+    Parameters
+    ----------
+    time_constant_s : float
+        Time constant of the first-order low-pass filter [s] (0: none).
+    """
+
+    def __init__(self, time_constant_s: float) -> None:
+        if isinstance(time_constant_s, bool) or not isinstance(time_constant_s, (int, float)) or not (
+                math.isfinite(time_constant_s) and time_constant_s >= 0):
+            raise ParameterError(f"time_constant_s must be a finite number >= 0, got {time_constant_s!r}")
+        self.time_constant_s = float(time_constant_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the previous measurement; the estimate restarts from zero."""
+        self.estimate_mps2 = np.zeros(2)
+        self._previous: tuple[float, np.ndarray] | None = None
+
+    def update(self, t_s: float, com_vel_mps: np.ndarray, contact_acc_mps2: np.ndarray | None) -> np.ndarray:
+        """Estimate ŵ [m/s²], shape (2,), after the measurement at ``t_s`` [s].
+
+        Parameters
+        ----------
+        com_vel_mps : ndarray, shape (2,) or (3,)
+            Measured CoM velocity [m/s] (world frame; a third component is ignored).
+        contact_acc_mps2 : ndarray, shape (2,) or None
+            Horizontal contact force per unit mass over the period that ended at ``t_s``
+            [m/s²]; None: not measured, the estimate holds.
+        """
+        vel = np.asarray(com_vel_mps, float)[:2].copy()
+        previous = self._previous
+        self._previous = (float(t_s), vel)
+        if previous is None or contact_acc_mps2 is None or not t_s > previous[0]:
+            return self.estimate_mps2.copy()
+        period = t_s - previous[0]
+        raw = (vel - previous[1]) / period - np.asarray(contact_acc_mps2, float)[:2]
+        alpha = period / (self.time_constant_s + period)
+        self.estimate_mps2 = self.estimate_mps2 + alpha * (raw - self.estimate_mps2)
+        return self.estimate_mps2.copy()
+
+
+__all__ = ["DisturbanceEstimator", "EstimatorParams", "StateEstimator", "steady_state_gain"]

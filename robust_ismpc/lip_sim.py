@@ -95,6 +95,9 @@ def run_lip(
     n_ticks = int(round(duration_s / dt))
     failure = None
     t = 0.0
+    # η² (x_c - x_z) averaged over the period that just ended (the contact force per unit mass);
+    # the first tick has no period behind it and reads the current value
+    contact_acc = robot.eta**2 * (true_state[0] - true_state[2])
     for k in range(n_ticks):
         t = k * dt
         w = total_force(forces, t) / robot.mass_kg
@@ -102,6 +105,7 @@ def run_lip(
             com_pos_m=np.array([*true_state[0], robot.com_height_m]),
             com_vel_mps=np.array([*true_state[1], 0.0]),
             zmp_m=true_state[2].copy(),
+            contact_acc_mps2=contact_acc,
         )
         centre = plan.centre(np.array([t]))[0]
         yaw = float(plan.centre_yaw(np.array([t]))[0])
@@ -120,7 +124,9 @@ def run_lip(
             zmp_violation_m=violation, disturbance_true_mps2=w, **controller_channels(controller, ref, t),
         )
         zmp_vel = (ref.zmp_m - true_state[2]) / dt
+        previous_vel = true_state[1]
         true_state = disc.A @ true_state + np.outer(disc.B, zmp_vel) + np.outer(disc.E, w)
+        contact_acc = (true_state[1] - previous_vel) / dt - w
         if not np.all(np.isfinite(true_state)) or np.max(np.abs(true_state[0] - true_state[2])) > limit:
             failure = "com_diverged"
             t += dt

@@ -37,13 +37,14 @@ class Measurement:
     left_sole_m, right_sole_m : ndarray, shape (2,) or None
         Measured sole positions (xy) [m], when available. The controller uses them to place a
         footstep where the foot actually landed.
-    lip_zmp_m : ndarray, shape (2,) or None
-        The ZMP of the equivalent LIP: ``c - f_xy / (m η²)``, the point where the LIP's ZMP
-        would be for its CoM to feel the measured horizontal contact force ``f_xy``. A multibody
-        robot swings its legs and arms, which moves its centre of pressure but not the force on
-        its CoM; an observer fed the raw CoP reads that as a disturbance, one fed this point
-        reads only what the contacts do not explain (a push, a load). When given, the
-        disturbance observer uses it instead of ``zmp_m``.
+    contact_acc_mps2 : ndarray, shape (2,) or None
+        The horizontal contact force per unit mass, ``f_xy / m``, averaged over the control
+        period that ends with this measurement [m/s²] (world frame). With the CoM velocity it
+        gives the disturbance directly: whatever accelerated the CoM beyond it is the external
+        force per unit mass (:class:`~robust_ismpc.estimator.DisturbanceEstimator`). A multibody
+        robot's swinging legs and arms move its centre of pressure but not this force. On the
+        LIP it is ``η² (x_c - x_z)`` averaged over the period. ``None``: not measured (the
+        disturbance estimate then holds its value).
     """
 
     com_pos_m: np.ndarray
@@ -51,7 +52,7 @@ class Measurement:
     zmp_m: np.ndarray | None = None
     left_sole_m: np.ndarray | None = None
     right_sole_m: np.ndarray | None = None
-    lip_zmp_m: np.ndarray | None = None
+    contact_acc_mps2: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,8 @@
 """Robust IS-MPC: nominal IS-MPC plus any subset of the three robustness modules (spec §11-§14).
 
-* ``observer``: a disturbance observer on the LIP extended with a constant disturbance
-  (:mod:`robust_ismpc.observer`) estimates ŵ from the measured CoM and ZMP (centre of pressure);
-  its persistent part is the floor of the mid-range target, the fresh estimate enters as far as
+* ``observer``: the disturbance ŵ is measured directly, as the CoM acceleration the contact
+  forces do not explain (:class:`~robust_ismpc.estimator.DisturbanceEstimator`); its persistent
+  part is the floor of the mid-range target, the fresh estimate enters as far as
   the shifted DCM stays feasible (:mod:`robust_ismpc.governor`); a mid-range filter saturates and
   rate-limits the target into w̃, which enters the stability constraint through the shifted DCM
   x̄_u = x_u + w̃/η² and the reference integration (+E_d w̃). An infeasible QP is retried with w̃
@@ -25,18 +25,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .controller import IsmpcController
+from .estimator import DisturbanceEstimator
 from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
-from .observer import (
-    DisturbanceObserver,
-    MidrangeFilter,
-    MidrangeParams,
-    MovingAverage,
-    ObserverParams,
-    PersistenceFilter,
-)
+from .observer import MidrangeFilter, MidrangeParams, PersistenceFilter
 from .params import MpcParams, RobotParams
 from .planner import rotation
 from .qp import QpSolver
@@ -59,13 +53,9 @@ class RobustParams:
         can guarantee.
     delta_max_fraction : float
         Used when ``delta_max_mps2`` is None, in (0, 1).
-    observer_poles : tuple of float
-        Discrete poles of the (CoM, CoM velocity, disturbance) estimation error. Default
-        (0.3, 0.4, 0.5), faster than the reference code's (0.6, 0.7, 0.8): the governor keeps a
-        fast estimate from over-compensating pushes (with the old poles it reached 33.8 N
-        constant +x on the g1 LIP instead of 37.8 N).
-    observer_zmp_pole : float
-        Discrete pole of the ZMP estimation error.
+    disturbance_time_constant_s : float
+        Time constant of the low-pass filter on the measured disturbance [s]
+        (:class:`~robust_ismpc.estimator.DisturbanceEstimator`).
     persistence_s : float
         The part of the estimate that persisted this long with one sign is its persistent part
         (see :class:`~robust_ismpc.observer.PersistenceFilter`) [s], the floor of the mid-range
@@ -80,11 +70,6 @@ class RobustParams:
         False: the persistent part only. On the g1 LIP (0.2 m/s, force from 3 s, 0.1 s pushes in
         single support) the governor raises the largest constant +x force survived from 20 N to
         about 37 N and the largest +y / -y push from 37 / 41 N to about 48 / 84 N (measured).
-    average_s : float
-        Window of a moving average applied after the persistence filter [s] (0: none). On a
-        walking robot, one stride (2 (T_ss + T_ds)) removes the gait-periodic part of the
-        estimate that comes from the robot-LIP mismatch (:class:`~robust_ismpc.observer.MovingAverage`);
-        a persistent force then takes one window to be fully compensated.
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
@@ -98,11 +83,9 @@ class RobustParams:
 
     delta_max_mps2: float | None = None
     delta_max_fraction: float = 0.5
-    observer_poles: tuple[float, float, float] = (0.3, 0.4, 0.5)
-    observer_zmp_pole: float = 0.5
+    disturbance_time_constant_s: float = 0.03
     persistence_s: float = 0.12
     governor: bool = True
-    average_s: float = 0.0
     midrange_rate_mps3: float = 10.0
     sta: StaParams | None = None
 
@@ -118,8 +101,10 @@ class RobustParams:
             raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
         if not isinstance(self.governor, bool):
             raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
-        if not (isinstance(self.average_s, (int, float)) and math.isfinite(self.average_s) and self.average_s >= 0):
-            raise ParameterError(f"RobustParams.average_s must be a finite number >= 0, got {self.average_s!r}")
+        if not (isinstance(self.disturbance_time_constant_s, (int, float)) and math.isfinite(self.disturbance_time_constant_s)
+                and self.disturbance_time_constant_s >= 0):
+            raise ParameterError("RobustParams.disturbance_time_constant_s must be a finite number >= 0, "
+                                 f"got {self.disturbance_time_constant_s!r}")
         if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
                 and self.midrange_rate_mps3 > 0):
             raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
@@ -173,10 +158,6 @@ class RobustIsmpcController(IsmpcController):
             raise ParameterError(f"unknown module {unknown[0]!r}; modules are: {', '.join(MODULES)}")
         self.modules = frozenset(modules)
         params = params if params is not None else RobustParams()
-        import os
-        if os.environ.get('RP_OVERRIDE'):
-            import ast
-            params = replace(params, **ast.literal_eval(os.environ['RP_OVERRIDE']))
         if delta_max_mps2 is not None:
             params = replace(params, delta_max_mps2=delta_max_mps2)
         self.robust_params = params
@@ -199,18 +180,12 @@ class RobustIsmpcController(IsmpcController):
             self.delta_max_mps2 = float(dmax)
             self._restriction_m = restriction_profile(self.restriction_rate_mps, self.dt, mpc_p.C)
         self.sta_params = params.sta if params.sta is not None else StaParams(margin_m=box / 16)
-        self.observer: DisturbanceObserver | None = None
+        self.observer: DisturbanceEstimator | None = None
         self.midrange: MidrangeFilter | None = None
         if "observer" in self.modules:
-            self.observer = DisturbanceObserver(ObserverParams(
-                com_height_m=robot.com_height_m, sampling_period_s=self.dt,
-                poles=params.observer_poles, zmp_pole=params.observer_zmp_pole,
-            ))
+            self.observer = DisturbanceEstimator(params.disturbance_time_constant_s)
             self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
             self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
-            window = max(1, int(round(params.average_s / self.dt)))
-            self.average = MovingAverage(window)
-            self.fresh_average = MovingAverage(window)
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
@@ -225,11 +200,9 @@ class RobustIsmpcController(IsmpcController):
         self._bounds_cache = None
         self._bounds_now = None
         if self.observer is not None:
-            self.observer.reset(self.state[0], self.state[1], self.state[2])
+            self.observer.reset()
             self.midrange.reset(0.0)
             self.persistence.reset()
-            self.average.reset()
-            self.fresh_average.reset()
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
@@ -247,28 +220,10 @@ class RobustIsmpcController(IsmpcController):
         if self.observer is None or measurement is None:
             return
         start = time.perf_counter()
-        zmp = measurement.lip_zmp_m if measurement.lip_zmp_m is not None else measurement.zmp_m
-        zmp = None if zmp is None else np.asarray(zmp, float)[:2]
-        w_hat = self.observer.update(np.asarray(measurement.com_pos_m, float)[:2], zmp, self.last_zmp_vel_mps)
-        import os
-        tau = float(os.environ.get('DIRECT_W_TAU', '0'))
-        if tau > 0 and zmp is not None:
-            c = np.asarray(measurement.com_pos_m, float)[:2]
-            v = np.asarray(measurement.com_vel_mps, float)[:2]
-            contact_acc = self.eta**2 * (c - zmp)
-            prev = getattr(self, '_direct_prev', None)
-            if prev is None or prev[0] >= t_s:
-                self._direct_w = np.zeros(2)
-            else:
-                dt = t_s - prev[0]
-                w_meas = (v - prev[1]) / dt - 0.5 * (contact_acc + prev[2])
-                a = dt / (tau + dt)
-                self._direct_w = self._direct_w + a * (w_meas - self._direct_w)
-            self._direct_prev = (t_s, v, contact_acc)
-            w_hat = self._direct_w.copy()
+        w_hat = self.observer.update(t_s, measurement.com_vel_mps, measurement.contact_acc_mps2)
         self.disturbance_estimate_mps2 = w_hat
-        self.persistent_disturbance_mps2 = self.average.update(self.persistence.update(w_hat))
-        self.fresh_disturbance_mps2 = self.fresh_average.update(w_hat)  # w̃ follows in _mpc_state
+        self.persistent_disturbance_mps2 = self.persistence.update(w_hat)
+        self.fresh_disturbance_mps2 = w_hat  # w̃ follows in _mpc_state
         self.info.observer_time_s = time.perf_counter() - start
 
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:

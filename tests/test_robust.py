@@ -1,6 +1,8 @@
 """Robust IS-MPC on the LIP: observer, restriction, step timing and their combination (issue evidence)."""
 
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -260,116 +262,53 @@ def _measurement_of_model(controller, shift_m, dcm_error_m=(0.0, 0.0)):
                        left_sole_m=left, right_sole_m=right)
 
 
-def test_measured_dcm_excess_is_relative_to_the_stance_sole_with_a_dead_band():
-    """A whole-robot drift gives no excess; a DCM error beyond the band gives error − band per axis."""
-    from robust_ismpc.robust import RobustParams
+def test_a_measured_dcm_jump_reaches_the_timing_module():
+    """The MPC starts from the measured state: a forward DCM jump in the measurement (a hit from
+    behind in single support) makes the timing module shorten the current step at once; the same
+    walk measured without the jump adapts nothing."""
+    results = {}
+    for jump in (0.0, 0.08):
+        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",))
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        t = _walk_open_loop_to_single_support(controller, plan, 5)
+        touchdown = plan.touchdown_s[5]
+        controller.step(t, _measurement_of_model(controller, np.zeros(2), [jump, 0.0]))
+        results[jump] = (controller.timing_adaptations, plan.touchdown_s[5], touchdown)
+    adaptations, new, old = results[0.0]
+    assert adaptations == 0 and new == old
+    adaptations, new, old = results[0.08]
+    assert adaptations == 1 and new < old - 0.05
 
-    band = (0.01, 0.02)
-    controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",),
-                                       params=RobustParams(measured_dcm_band_m=band))
+
+def test_a_landed_footstep_moves_to_the_measured_sole_with_the_model():
+    """At touchdown the landed footstep is placed at the measured sole, and the model's CoM and
+    ZMP move by the same offset, so the MPC's state keeps its place relative to the support; the
+    later footsteps move by the landed footstep's offset from its candidate (replanning on
+    landing)."""
+    controller = IsmpcController(ROBOT, MpcParams())
     plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
     controller.reset(plan, np.zeros(2))
-    t = _walk_open_loop_to_single_support(controller, plan, 4)
-    drift = np.array([0.37, -0.21])
-    np.testing.assert_allclose(controller.measured_dcm_excess(t, _measurement_of_model(controller, drift)), 0.0,
-                               atol=1e-12)
-    excess = controller.measured_dcm_excess(t, _measurement_of_model(controller, drift, [0.025, -0.005]))
-    np.testing.assert_allclose(excess, [0.015, 0.0], atol=1e-12)
-    excess = controller.measured_dcm_excess(t, _measurement_of_model(controller, drift, [-0.004, -0.05]))
-    np.testing.assert_allclose(excess, [0.0, -0.03], atol=1e-12)
-    # in double support there is no stance sole to refer to
-    t_ds = plan.touchdown_s[4] + 0.05
-    assert controller.measured_dcm_excess(t_ds, _measurement_of_model(controller, drift)) is None
-
-
-def test_measured_dcm_error_reaches_the_timing_module_only_with_a_band():
-    """On an internal-model controller (feedback gains 0) a forward DCM jump in single support is
-    invisible to the timing module unless the measured-DCM band is set; with it, the current step
-    is shortened (the paper's reaction to a hit from behind)."""
-    from robust_ismpc.robust import RobustParams
-
-    results = {}
-    for band in (None, (0.005, 0.01)):
-        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), state_feedback_gain=0.0,
-                                           params=RobustParams(measured_dcm_band_m=band))
-        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
-        controller.reset(plan, np.zeros(2))
-        t = _walk_open_loop_to_single_support(controller, plan, 5)
-        touchdown = plan.touchdown_s[5]
-        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.08, 0.0]))
-        results[band] = (controller.timing_adaptations, plan.touchdown_s[5], touchdown)
-    adaptations, new, old = results[None]
-    assert adaptations == 0 and new == old
-    adaptations, new, old = results[(0.005, 0.01)]
-    assert adaptations == 1 and new < old - 0.05
-
-
-ENVELOPE_M = [[-0.006, 0.002], [-0.01, 0.01]]
-
-
-@pytest.mark.parametrize("omega", [0.0, 0.3])
-def test_dcm_error_envelope_adopts_exactly_the_excess_in_the_stance_foot_frame(omega):
-    """Internal-model controller (gains 0) with a DCM error envelope: an error inside it changes
-    nothing; beyond it the model's DCM moves by exactly the excess, measured in the stance
-    foot's frame (turning walk: the foot is yawed), and the CoM position stays."""
-    controller = IsmpcController(ROBOT, MpcParams(), state_feedback_gain=0.0, anchor_landed_footsteps=False,
-                                 dcm_error_envelope_m=ENVELOPE_M)
-    plan = plan_footsteps(ROBOT, WalkCommand(0.1, 0.0, omega), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
-    controller.reset(plan, np.zeros(2))
-    t = _walk_open_loop_to_single_support(controller, plan, 5)
-    stance = controller.feet[-int(plan.side[5])]
-    R = np.array([[np.cos(stance.yaw_rad), -np.sin(stance.yaw_rad)], [np.sin(stance.yaw_rad), np.cos(stance.yaw_rad)]])
-    assert omega == 0.0 or abs(stance.yaw_rad) > 0.1
-    drift = np.array([0.21, -0.13])
-
-    com, dcm = controller.state[0].copy(), controller._mpc_state(t, None).dcm_m
-    inside = controller._mpc_state(t, _measurement_of_model(controller, drift, R @ [0.0015, -0.009]))
-    np.testing.assert_allclose(inside.dcm_m, dcm, atol=1e-12)
-    assert controller.dcm_corrections == 0 and controller.first_dcm_correction_s is None
-    np.testing.assert_allclose(controller.dcm_error_range_m, [[0.0015, 0.0015], [-0.009, -0.009]], atol=1e-12)
-
-    measurement = _measurement_of_model(controller, drift, R @ [0.012, -0.025])
-    beyond = controller._mpc_state(t, measurement)
-    np.testing.assert_allclose(R.T @ (beyond.dcm_m - dcm), [0.010, -0.015], atol=1e-12)
-    np.testing.assert_allclose(controller.state[0], com, atol=1e-15)
-    assert controller.dcm_corrections == 1 and controller.first_dcm_correction_s == t
-    np.testing.assert_allclose(controller.dcm_error_range_m, [[0.0015, 0.012], [-0.025, -0.009]], atol=1e-12)
-    # the model now holds the excess: the same measurement again leaves the error on the envelope
-    again = controller._mpc_state(t, measurement)
-    np.testing.assert_allclose(again.dcm_m, beyond.dcm_m, atol=1e-12)
-
-
-def test_dcm_error_envelope_lets_the_timing_module_see_a_hit():
-    """The envelope brings a forward DCM jump into the internal model, so the timing module of an
-    internal-model controller shortens the step (without it, it never sees the jump)."""
-    results = {}
-    for envelope in (None, ENVELOPE_M):
-        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), state_feedback_gain=0.0,
-                                           dcm_error_envelope_m=envelope)
-        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
-        controller.reset(plan, np.zeros(2))
-        t = _walk_open_loop_to_single_support(controller, plan, 5)
-        touchdown = plan.touchdown_s[5]
-        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.08, 0.0]))
-        results[envelope is not None] = (controller.timing_adaptations, plan.touchdown_s[5], touchdown)
-    adaptations, new, old = results[False]
-    assert adaptations == 0 and new == old
-    adaptations, new, old = results[True]
-    assert adaptations == 1 and new < old - 0.05
-
-
-@pytest.mark.parametrize("envelope", [[0.01, 0.01], [[0.01, -0.01], [-0.01, 0.01]], [[np.nan, 0.0], [0.0, 0.0]], "wide"])
-def test_bad_dcm_error_envelope_is_refused(envelope):
-    with pytest.raises(ParameterError, match="dcm_error_envelope_m"):
-        IsmpcController(ROBOT, MpcParams(), dcm_error_envelope_m=envelope)
-
-
-def test_dcm_error_envelope_and_measured_band_are_exclusive():
-    from robust_ismpc.robust import RobustParams
-
-    with pytest.raises(ParameterError, match="measured_dcm_band_m and dcm_error_envelope_m"):
-        RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",), dcm_error_envelope_m=ENVELOPE_M,
-                              params=RobustParams(measured_dcm_band_m=(0.01, 0.01)))
+    t = 0.0
+    while t < plan.touchdown_s[4] - 1e-9:
+        controller.step(t)
+        t = round(t + controller.dt, 9)
+    offset = np.array([0.012, -0.007])
+    side = int(plan.side[4])
+    before_com, before_zmp = controller.state[0].copy(), controller.state[2].copy()
+    later = plan.pos_m[5:8].copy()
+    candidate = plan.candidate_pos_m[4].copy()
+    measurement = _measurement_of_model(controller, np.zeros(2))
+    landed = plan.pos_m[4] + offset
+    if side == 1:
+        measurement = replace(measurement, left_sole_m=landed)
+    else:
+        measurement = replace(measurement, right_sole_m=landed)
+    controller._anchor_landed(t, measurement)
+    np.testing.assert_allclose(plan.pos_m[4], landed, atol=1e-12)
+    np.testing.assert_allclose(controller.state[0] - before_com, offset, atol=1e-12)
+    np.testing.assert_allclose(controller.state[2] - before_zmp, offset, atol=1e-12)
+    np.testing.assert_allclose(plan.pos_m[5:8] - later, np.tile(landed - candidate, (3, 1)), atol=1e-12)
 
 
 def test_observer_reads_the_lip_zmp_when_the_measurement_has_one():

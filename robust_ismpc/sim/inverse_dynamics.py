@@ -29,7 +29,6 @@ pressure to keep the CoM on its reference: it is the balance feedback the servo 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, fields
 
 import daqp
@@ -84,6 +83,13 @@ class TorqueControlSettings:
         compensation off. Without it G1's 0.3 N m joint friction left 40 % of a small lateral
         CoM acceleration unrealised in double support, and a closed loop on the measured CoM
         drifted to the edge of the ZMP box within 1.4 s (docs/closed-loop.md).
+    momentum_weight : float
+        Weight of the centroidal angular-momentum task; 0 switches it off. The task asks for the
+        rate ``-momentum_damping * L`` and is scaled by ``1 / (m g)``, so that its error reads as
+        the shift of the centre of pressure it causes [m]. Without it OP3 had 14 infeasible MPC
+        cycles in 20 s of undisturbed walking, with it none (docs/closed-loop.md).
+    momentum_damping : float
+        Rate at which the task damps the centroidal angular momentum [1/s].
     """
 
     com_kp: float = 50.0
@@ -105,6 +111,8 @@ class TorqueControlSettings:
     min_normal_force_n: float = 1.0
     regularisation: float = 1e-6
     friction_smoothing_radps: float = 0.02
+    momentum_weight: float = 1e4
+    momentum_damping: float = 10.0
 
     def __post_init__(self) -> None:
         check_nonnegative("TorqueControlSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
@@ -206,8 +214,7 @@ class InverseDynamicsQp:
         jac_com = np.zeros((3, nv))
         mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
         # the disturbance the plan was made for acts like a uniform field on the whole robot
-        import os
-        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0]) * float(os.environ.get('ID_W', '1'))
+        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0])
         bias = d.qfrc_bias - d.qfrc_passive - self.robot.mass_kg * (jac_com.T @ disturbance)
         qvel = d.qvel
         feet = {"left": reference.left_foot, "right": reference.right_foot}
@@ -218,7 +225,7 @@ class InverseDynamicsQp:
             self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
         # the reference is the state at the end of the control period: compare it with the
         # current state at the current time
-        lead = max(0.0, reference.t_s - float(d.time)) if os.environ.get('ID_LEAD','1')=='1' else 0.0
+        lead = max(0.0, reference.t_s - float(d.time))
         soles = {side: self.robot.sole_frame(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
@@ -263,8 +270,7 @@ class InverseDynamicsQp:
         row[:, :nv] = jac_com
         tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
         # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
-        am_weight = float(os.environ.get('AM_W', '0'))
-        if am_weight > 0:
+        if s.momentum_weight > 0:
             ang = np.zeros((3, nv))
             mujoco.mj_angmomMat(m, d, ang, self._root)
             ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
@@ -273,8 +279,7 @@ class InverseDynamicsQp:
             momentum = ang @ qvel
             row = np.zeros((3, n))
             row[:, :nv] = scale * ang
-            am_kd = float(os.environ.get('AM_KD', '10'))
-            tasks.append((row, scale * (-am_kd * momentum - ang_dot @ qvel), am_weight))
+            tasks.append((row, scale * (-s.momentum_damping * momentum - ang_dot @ qvel), s.momentum_weight))
         # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
         root_rot = d.xmat[self._root].reshape(3, 3)
         target_rot = np.empty(9)

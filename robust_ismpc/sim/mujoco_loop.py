@@ -323,6 +323,7 @@ class MujocoSimulation:
         self._ik_qvel = np.zeros(self.ik.model.nv)
         self._ik_qacc = np.zeros(self.ik.model.nv)
         self._reference: GaitReference | None = None  # the last commanded reference (torque control)
+        self.mean_horizontal_contact_force_n: np.ndarray | None = None  # none before the first period
         self._targets = self.actuators.targets(self.ik.qpos)
         self._target_vel = np.zeros(self.model.nu)
         self._feedforward = np.zeros(self.model.nu)
@@ -382,19 +383,27 @@ class MujocoSimulation:
         self._apply_targets()
 
     def advance(self, recorder: VideoRecorder | None = None) -> tuple[np.ndarray, float]:
-        """Step the physics over one control period; returns (last applied force (3,) [N], render time [s])."""
+        """Step the physics over one control period; returns (last applied force (3,) [N], render time [s]).
+
+        Also sets :attr:`mean_horizontal_contact_force_n`, the horizontal foot-floor contact
+        force averaged over the physics steps of the period [N], shape (2,).
+        """
         force = np.zeros(3)
         render_s = 0.0
         motors = not self.actuators.is_position.all()
+        contact_force = np.zeros(2)
         for _ in range(self.substeps):
             force = self.forces.apply(self.data, self.data.time)
             if motors:
                 self._apply_targets()
             mujoco.mj_step(self.model, self.data)
+            # after mj_step the contacts and their forces are those the step applied
+            contact_force += self.robot.contacts().horizontal_force_n
             if recorder is not None and recorder.due(self.data.time):
                 start = time.perf_counter()
                 recorder.capture(self.data)
                 render_s += time.perf_counter() - start
+        self.mean_horizontal_contact_force_n = contact_force / self.substeps
         return force, render_s
 
     def has_fallen(self) -> bool:
@@ -469,7 +478,7 @@ def run_simulation(
         for k in range(n_ticks):
             t_s = t0_sim + k * period
             a = time.perf_counter()
-            measurement, contacts = robot.measure()
+            measurement, contacts = robot.measure(mean_horizontal_force_n=sim.mean_horizontal_contact_force_n)
             left, right = robot.sole_pose("left"), robot.sole_pose("right")
             polygon = robot.support_polygon(contacts)
             outside = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)

@@ -403,29 +403,31 @@ class MujocoRobot:
         return convex_hull(np.vstack(corners))
 
     # ------------------------------------------------------------------ measurement
-    def measure(self, forward: bool = True) -> tuple[Measurement, ContactState]:
+    def measure(self, forward: bool = True, mean_horizontal_force_n: np.ndarray | None = None
+                ) -> tuple[Measurement, ContactState]:
         """The controller's measurement and the contact state.
 
-        ``lip_zmp_m`` is the ZMP of the equivalent LIP: the point where the LIP's ZMP would be
-        for its CoM to feel the measured horizontal contact force,
-        ``c - f_xy / (m η²)`` with ``η² = g / h`` (``h`` the robot's LIP CoM height). Whatever
-        else accelerates the CoM (a push, a load) is then the LIP's disturbance, while the robot's
-        own motion (swinging legs, spinning torso) is not.
+        ``contact_acc_mps2`` is the horizontal contact force per unit mass over the control
+        period that just ended: ``mean_horizontal_force_n / m`` when given (the simulation
+        averages it over its physics steps, :meth:`MujocoSimulation.advance`), else the current
+        contact force's.
 
         Parameters
         ----------
         forward : bool
             Run ``mj_forward`` first so that positions, velocities and contact forces all refer
             to the current state (cheap; leave True unless the caller just did it).
+        mean_horizontal_force_n : ndarray, shape (2,), optional
+            Horizontal contact force averaged over the last control period [N] (world frame).
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
         com, vel = self._com_of(*self._body_motion()[:2])
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
-        eta_squared = GRAVITY_MPS2 / self.spec.com_height_m
-        lip_zmp = com[:2] - contacts.horizontal_force_n / (self.mass_kg * eta_squared)
-        return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, lip_zmp_m=lip_zmp), contacts
+        force = contacts.horizontal_force_n if mean_horizontal_force_n is None else mean_horizontal_force_n
+        contact_acc = np.asarray(force, dtype=float)[:2] / self.mass_kg
+        return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, contact_acc_mps2=contact_acc), contacts
 
 
 @dataclass(frozen=True)

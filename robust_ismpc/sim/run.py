@@ -34,11 +34,9 @@ import numpy as np
 from ..estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..lip_sim import INTERRUPTED
-from ..params import check_nonnegative
 from ..planner import plan_footsteps
 from ..report import summarize
 from ..robots.spec import BUILTIN_ROBOTS, load_robot
-from ..robust import RobustParams
 from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
@@ -76,12 +74,6 @@ class WalkSettings:
     disturbance_feedforward : bool
         Servo playback only: servo torque feedforward of the planned disturbance force ``m ŵ``
         (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.disturbance_feedforward`).
-    disturbance_average_strides : float
-        Moving-average window of the disturbance estimate, in strides of the robot's gait
-        (:attr:`~robust_ismpc.robust.RobustParams.average_s`; 0: none).
-    observer_poles : tuple of float or None
-        Observer error poles on this robot (None: the
-        :class:`~robust_ismpc.robust.RobustParams` default).
     ik : IkSettings
         Whole-body IK weights (the posture reference of both whole-body controls).
     fall : FallCriteria
@@ -94,46 +86,25 @@ class WalkSettings:
     foot_friction: float | None = None
     dynamic_feedforward: bool = False
     disturbance_feedforward: bool = True
-    disturbance_average_strides: float = 0.0
-    observer_poles: tuple[float, float, float] | None = None
     ik: IkSettings = field(default_factory=IkSettings)
     fall: FallCriteria = field(default_factory=FallCriteria)
     torque_control: TorqueControlSettings = field(default_factory=TorqueControlSettings)
 
     def __post_init__(self) -> None:
-        check_nonnegative("WalkSettings", disturbance_average_strides=self.disturbance_average_strides)
         if not isinstance(self.estimator, EstimatorParams):
             raise ParameterError(f"WalkSettings.estimator must be EstimatorParams, got {type(self.estimator).__name__}")
 
 
-#: Observer poles on the full robots: the reference code's (0.6, 0.7, 0.8), slower than the LIP
-#: default. With the faster default and the feasibility governor, the robust G1 walking forward
-#: at 0.2 m/s without any push fell at 12.0 s; with either one alone it walked 60 s (measured).
-ROBOT_OBSERVER_POLES = (0.6, 0.7, 0.8)
-
-#: Per-robot closed-loop settings (tuned; see docs/robots.md "Walking in MuJoCo"). Both robots
-#: average the disturbance estimate over one stride (G1 with the observer fell at 56-95 s
-#: walking undisturbed at 0.1 m/s without it, and walked 120 s with it). G1's observer reads the
-#: spin-corrected CoP: at 0.2 m/s under random pushes (seeds 0-3, 120 s) it walked 120 s in 2 of 4
-#: runs with it and the disturbance feedforward, against 0 of 4 with either alone (longest 77 s).
-#: OP3's reads the raw CoP: carrying the swinging bag (paper-bag, seeds 0-5) the robust OP3
-#: walked 15 s on the path in 6 of 6 runs with the raw CoP, and with the corrected one fell in 2
-#: (at 9.5 and 14.9 s) and left the path by 3.3 cm in a third; under random pushes (seeds 0-2,
-#: 120 s, before the path feedback) it walked in all six runs either way. No robot uses the
-#: measured-DCM band by default: on OP3 with the band (7, 13) mm the timing module does react
-#: to a ball hit, but the rushed steps made it fall where the unaware controller walked (see
-#: docs/scenarios.md). G1's feet get
-#: friction 1.0 instead of the model's 0.6: in single support its stance foot often rests on one
-#: or two of its four contact spheres, and at 0.6 it slid (20 mm/s on average) and turned (the
-#: robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the yaw stays within 0.1 rad. G1 uses the
-#: inverse-dynamics feedforward instead of the CoM stabiliser (sideways, turning and stepping in
-#: place walk 30 s instead of falling at 5.8, 8.8 and 14 s).
+#: Measurement noise of the robots' state estimator: σ_p = 5 mm, σ_v = 5 cm/s, σ_a = 0.5 m/s²
+#: (docs/closed-loop.md). G1's feet get friction 1.0 instead of the model's 0.6: in single support
+#: its stance foot often rests on one or two of its four contact spheres, and at 0.6 it slid
+#: (20 mm/s on average) and turned (the robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the
+#: yaw stays within 0.1 rad.
 ROBOT_ESTIMATOR = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5)
 
 WALK_SETTINGS: dict[str, WalkSettings] = {
-    "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True,
-                       observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
-    "op3": WalkSettings(observer_poles=ROBOT_OBSERVER_POLES, estimator=ROBOT_ESTIMATOR),
+    "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True, estimator=ROBOT_ESTIMATOR),
+    "op3": WalkSettings(estimator=ROBOT_ESTIMATOR),
 }
 
 
@@ -225,13 +196,7 @@ def run_mujoco_spec(
         params, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
         left0.pos_m[:2], right0.pos_m[:2], yaw0,
     )
-    options = {}
-    if spec.modules:
-        poles = {"observer_poles": settings.observer_poles} if settings.observer_poles is not None else {}
-        options["params"] = RobustParams(
-            average_s=settings.disturbance_average_strides * 2.0 * params.T_step_s, **poles,
-        )
-    controller = make_controller(params, spec, estimator=settings.estimator, **options)
+    controller = make_controller(params, spec, estimator=settings.estimator)
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
@@ -264,7 +229,7 @@ def run_mujoco_spec(
         for k in range(n_ticks):
             t_s = k * dt
             a = time.perf_counter()
-            measurement, contacts = robot.measure()
+            measurement, contacts = robot.measure(mean_horizontal_force_n=sim.mean_horizontal_contact_force_n)
             left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
             polygon = robot.support_polygon(contacts)
