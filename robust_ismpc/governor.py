@@ -4,7 +4,7 @@ The mid-range disturbance w̃ enters the stability constraint through the shifte
 x̄_u = x_u + w̃/η² as if it lasted forever (spec §11.5). A fresh estimate cannot tell a persistent
 force from a push: used at once it compensates a constant force early but over-compensates a
 0.1 s push (the plan is committed to a disturbance that stops); used only once it has persisted
-(:class:`~robust_ismpc.observer.PersistenceFilter`) it is safe against pushes but late for a
+(:class:`~robust_ismpc.disturbance_filters.PersistenceFilter`) it is safe against pushes but late for a
 constant force.
 
 The governor takes the persistent part ``w_p`` as a floor and lets the fresh estimate ``w_f`` in

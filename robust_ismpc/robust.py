@@ -25,12 +25,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .controller import IsmpcController
+from .disturbance_filters import MidrangeFilter, MidrangeParams, PersistenceFilter
 from .estimator import DisturbanceEstimator
 from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
-from .observer import MidrangeFilter, MidrangeParams, PersistenceFilter
 from .params import MpcParams, RobotParams
 from .planner import rotation
 from .qp import QpSolver
@@ -58,7 +58,7 @@ class RobustParams:
         (:class:`~robust_ismpc.estimator.DisturbanceEstimator`).
     persistence_s : float
         The part of the estimate that persisted this long with one sign is its persistent part
-        (see :class:`~robust_ismpc.observer.PersistenceFilter`) [s], the floor of the mid-range
+        (see :class:`~robust_ismpc.disturbance_filters.PersistenceFilter`) [s], the floor of the mid-range
         target: impulsive pushes are left to the step timing adaptation instead of being
         compensated as if they lasted forever.
     governor : bool
