@@ -363,7 +363,7 @@ class IsmpcController:
         self.info.build_time_s = self.info.solve_time_s = 0.0
         if measurement is not None:
             values = [measurement.com_pos_m, measurement.com_vel_mps]
-            values += [v for v in (measurement.zmp_m, measurement.contact_acc_mps2) if v is not None]
+            values += [v for v in (measurement.zmp_m, measurement.contact_acc_mps2, measurement.external_moment_acc_mps2) if v is not None]
             if not np.isfinite(np.concatenate(values)).all():
                 raise ControllerFailure(f"t={t_s:.3f} s: measurement contains NaN or inf", reason="bad_measurement")
         self._previous_disturbance = self.disturbance_mps2.copy()

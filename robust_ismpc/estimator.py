@@ -161,7 +161,11 @@ class DisturbanceEstimator:
 
     with :math:`\bar a_k` the horizontal contact force per unit mass averaged over the period
     (:attr:`~robust_ismpc.reference.Measurement.contact_acc_mps2`; on the LIP
-    :math:`\eta^2 (x_c - x_z)` averaged). Nothing else enters: a robot's own swinging and spinning
+    :math:`\eta^2 (x_c - x_z)` averaged). An external moment about the CoM (a push above the
+    CoM, a load hanging off an arm) needs the ZMP to move just like a force does; when the
+    measurement carries it as an acceleration
+    (:attr:`~robust_ismpc.reference.Measurement.external_moment_acc_mps2`) it is added. Nothing
+    else enters: a robot's own swinging and spinning
     move its centre of pressure, not its CoM's acceleration, so undisturbed the estimate stays
     near zero, and a push shows at the next measurement. The raw value is low-pass filtered with
     time constant ``time_constant_s`` (the estimate of a 0.1 s push ends about that long after
@@ -185,7 +189,8 @@ class DisturbanceEstimator:
         self.estimate_mps2 = np.zeros(2)
         self._previous: tuple[float, np.ndarray] | None = None
 
-    def update(self, t_s: float, com_vel_mps: np.ndarray, contact_acc_mps2: np.ndarray | None) -> np.ndarray:
+    def update(self, t_s: float, com_vel_mps: np.ndarray, contact_acc_mps2: np.ndarray | None,
+               moment_acc_mps2: np.ndarray | None = None) -> np.ndarray:
         """Estimate ŵ [m/s²], shape (2,), after the measurement at ``t_s`` [s].
 
         Parameters
@@ -195,6 +200,10 @@ class DisturbanceEstimator:
         contact_acc_mps2 : ndarray, shape (2,) or None
             Horizontal contact force per unit mass over the period that ended at ``t_s``
             [m/s²]; None: not measured, the estimate holds.
+        moment_acc_mps2 : ndarray, shape (2,) or None
+            The external moment about the CoM over the same period as an LIP acceleration
+            (:attr:`~robust_ismpc.reference.Measurement.external_moment_acc_mps2`) [m/s²],
+            added to the estimate; None: 0.
         """
         vel = np.asarray(com_vel_mps, float)[:2].copy()
         previous = self._previous
@@ -203,6 +212,8 @@ class DisturbanceEstimator:
             return self.estimate_mps2.copy()
         period = t_s - previous[0]
         raw = (vel - previous[1]) / period - np.asarray(contact_acc_mps2, float)[:2]
+        if moment_acc_mps2 is not None:
+            raw = raw + np.asarray(moment_acc_mps2, float)[:2]
         alpha = period / (self.time_constant_s + period)
         self.estimate_mps2 = self.estimate_mps2 + alpha * (raw - self.estimate_mps2)
         return self.estimate_mps2.copy()

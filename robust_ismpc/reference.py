@@ -45,6 +45,12 @@ class Measurement:
         robot's swinging legs and arms move its centre of pressure but not this force. On the
         LIP it is ``η² (x_c - x_z)`` averaged over the period. ``None``: not measured (the
         disturbance estimate then holds its value).
+    external_moment_acc_mps2 : ndarray, shape (2,) or None
+        The external moment about the CoM (a push above or below it, a load hanging off the
+        robot), averaged over the same period, as the LIP acceleration it is equivalent to:
+        ``(τ_y, -τ_x) / (m h)`` [m/s²], with ``τ = dL/dt - M_contact`` (the rate of the centroidal
+        angular momentum minus the contact forces' moment about the CoM). The LIP's ZMP must
+        move by it over η² just as for a force. ``None``: not measured (0; the LIP has none).
     """
 
     com_pos_m: np.ndarray
@@ -53,6 +59,7 @@ class Measurement:
     left_sole_m: np.ndarray | None = None
     right_sole_m: np.ndarray | None = None
     contact_acc_mps2: np.ndarray | None = None
+    external_moment_acc_mps2: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

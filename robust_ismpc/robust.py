@@ -220,7 +220,8 @@ class RobustIsmpcController(IsmpcController):
         if self.observer is None or measurement is None:
             return
         start = time.perf_counter()
-        w_hat = self.observer.update(t_s, measurement.com_vel_mps, measurement.contact_acc_mps2)
+        w_hat = self.observer.update(t_s, measurement.com_vel_mps, measurement.contact_acc_mps2,
+                                     measurement.external_moment_acc_mps2)
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.persistence.update(w_hat)
         self.fresh_disturbance_mps2 = w_hat  # w̃ follows in _mpc_state

@@ -30,7 +30,7 @@ CASES = [
     ("unknown tail", lambda: MpcParams(tail="magic"), "anticipative"),
     ("control horizon shorter than one step",
      lambda: IsmpcController(G1, MpcParams(control_horizon_s=0.5, preview_horizon_s=2.0)), "shorter than one step"),
-    ("feedback gain above 1", lambda: IsmpcController(G1, state_feedback_gain=1.5), "state_feedback_gain"),
+    ("estimator of the wrong type", lambda: IsmpcController(G1, estimator=(0.01, 0.1, 1.0)), "estimator"),
     ("unguaranteeable Δmax", lambda: RobustIsmpcController(G1, modules=("restriction",), delta_max_mps2=2.0),
      "largest guaranteed delta_max"),
     ("unknown module", lambda: RobustIsmpcController(G1, modules=("telepathy",)), "unknown module 'telepathy'"),
@@ -47,9 +47,8 @@ CASES = [
     ("push with zero duration", lambda: parse_push("1,0@3:0"), "duration must be > 0"),
     ("force starting before 0", lambda: ForceWindow(1.0, 0.0, -1.0, 1.0), "t_start_s"),
     ("step before reset", lambda: IsmpcController(G1).step(0.0), "reset()"),
-    ("negative disturbance average window", lambda: RobustParams(average_s=-1.0), "average_s"),
-    ("measured-DCM band with one number", lambda: RobustParams(measured_dcm_band_m=(0.01,)), "measured_dcm_band_m"),
-    ("negative measured-DCM band", lambda: RobustParams(measured_dcm_band_m=(0.01, -0.02)), "measured_dcm_band_m"),
+    ("negative disturbance time constant", lambda: RobustParams(disturbance_time_constant_s=-1.0),
+     "disturbance_time_constant_s"),
 ]
 
 

@@ -127,7 +127,7 @@ def test_bad_disturbance_time_constant_raises(bad):
 def test_persistence_passes_a_lasting_estimate_and_drops_a_short_one():
     window = 5
     persistence = PersistenceFilter(window)
-    for k in range(window - 1):
+    for _ in range(window - 1):
         np.testing.assert_array_equal(persistence.update(np.array([1.0, -1.0])), [0.0, 0.0])
     np.testing.assert_array_equal(persistence.update(np.array([1.0, -1.0])), [1.0, -1.0])
     np.testing.assert_array_equal(persistence.update(np.array([-0.5, -2.0])), [0.0, -1.0])

@@ -113,16 +113,13 @@ def test_governor_compensates_a_constant_force_sooner():
     assert times[0] < times[1] - 0.05
 
 
-@pytest.mark.parametrize(
-    "forces",
-    [
-        pytest.param([ForceWindow(30.0, 0.0, 3.0)], id="constant 30 N +x"),
-        pytest.param([ForceWindow(0.0, -60.0, PUSH_T, PUSH_T + 0.1)], id="push 60 N -y"),
-    ],
-)
-def test_governor_survives_what_the_persistent_part_alone_does_not(forces):
-    """g1 LIP envelope cases (measured: persistent part only 20 N / 41 N, governed 38 N / 85 N)."""
+def test_governor_survives_a_constant_force_the_persistent_part_alone_does_not():
+    """g1 LIP, 30 N constant +x from 3 s: the governed robust controller walks, the persistent
+    part alone falls (it waits the persistence window before compensating). A 60 N, 0.1 s
+    lateral push, which the persistent part alone did not survive with the Luenberger
+    observer's estimate, it survives with the measured one (the estimate ends with the push)."""
+    forces = [ForceWindow(30.0, 0.0, 3.0)]
     governed, _, _ = _walk(forces)
-    persistent_only, _, _ = _walk(forces, RobustParams(governor=False, observer_poles=(0.6, 0.7, 0.8)))
+    persistent_only, _, _ = _walk(forces, RobustParams(governor=False))
     assert not governed.fell
     assert persistent_only.fell

@@ -93,59 +93,49 @@ def test_com_velocity_and_angular_momentum_match_mujoco(g1_spec: RobotSpec) -> N
     np.testing.assert_allclose(robot.angular_momentum(), data.subtree_angmom[robot.root_id], atol=1e-10)
 
 
-def _lip_disturbance(g1_spec: RobotSpec, seconds: float, arm_swing_rad: float = 0.0, force_n: float = 0.0):
-    """G1 held standing by its servos; returns the disturbance (x) an LIP reads from the raw CoP
-    and from ``lip_zmp_m`` at each tick after 0.5 s, w = ẍ - (g / h)(x_c - x_z) [m/s^2], and the
-    pelvis CoM height [m]. Both arms swing in phase about the shoulder pitch with ``arm_swing_rad``
-    at 1.5 Hz; ``force_n`` pushes the pelvis along x."""
-    model = g1_spec.load_model()
-    data = mujoco.MjData(model)
-    standing_state(g1_spec, model, data)
-    robot = MujocoRobot(g1_spec, model, data)
-    joint_qpos = model.jnt_qposadr[model.actuator_trnid[:, 0]]
-    hold = data.qpos[joint_qpos].copy()
-    arms = np.array(["shoulder_pitch" in model.actuator(i).name for i in range(model.nu)])
-    pelvis = model.body("pelvis").id
-    eta2 = 9.81 / g1_spec.com_height_m
-    steps = int(round(0.01 / model.opt.timestep))
+def _measured_disturbance(spec: RobotSpec, controller, seconds: float, force_n: float = 0.0):
+    """The robot in :class:`MujocoSimulation` (servos) following ``controller``; per 10 ms tick
+    after 0.5 s, the x disturbance an LIP reads from the raw CoP, ẍ - η² (x_c - x_z), and the
+    one measured from the period-mean contact force and external moment
+    (:class:`DisturbanceEstimator`, unfiltered) [m/s²]. ``force_n`` pushes the torso body along x."""
+    from robust_ismpc.estimator import DisturbanceEstimator
+
+    forces = [Force(force_n, 0.0, 0.0, math.inf)] if force_n else []
+    sim = MujocoSimulation(spec, forces)
+    estimator = DisturbanceEstimator(0.0)
+    eta2 = 9.81 / spec.com_height_m
     rows = []
     for k in range(int(seconds / 0.01)):
         t = k * 0.01
-        data.ctrl[:] = hold + arms * arm_swing_rad * math.sin(2 * math.pi * 1.5 * t)
-        data.xfrc_applied[pelvis, 0] = force_n
-        measurement, _ = robot.measure()
-        rows.append(np.concatenate([measurement.com_pos_m[:2], measurement.com_vel_mps[:2],
-                                    measurement.zmp_m, measurement.lip_zmp_m]))
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
+        measurement, _ = sim.measure()
+        w = estimator.update(t, measurement.com_vel_mps, measurement.contact_acc_mps2,
+                             measurement.external_moment_acc_mps2)
+        rows.append([measurement.com_pos_m[0], measurement.com_vel_mps[0], measurement.zmp_m[0], w[0]])
+        sim.command(controller.step(t, measurement))
+        sim.advance()
     rows = np.array(rows)
-    acc = np.gradient(rows[:, 2], 0.01)
-    keep = slice(50, None)
-    w_raw = acc - eta2 * (rows[:, 0] - rows[:, 4])
-    w_lip = acc - eta2 * (rows[:, 0] - rows[:, 6])
-    return w_raw[keep], w_lip[keep], float(data.xipos[pelvis][2])
+    w_cop = np.gradient(rows[:, 1], 0.01) - eta2 * (rows[:, 0] - rows[:, 2])
+    return w_cop[50:], rows[50:, 3], sim
 
 
-def test_lip_zmp_removes_the_robots_own_spin(g1_spec: RobotSpec) -> None:
-    """Swinging arms move the CoP, but no external force acts: the LIP reading of lip_zmp_m
-    stays near zero while the raw CoP reads a large oscillating disturbance."""
-    w_raw, w_lip, _ = _lip_disturbance(g1_spec, 2.5, arm_swing_rad=0.6)
-    assert np.std(w_raw) > 0.1  # the spin the raw CoP shows [m/s^2]
-    assert np.std(w_lip) < 0.2 * np.std(w_raw)
-    assert abs(np.mean(w_lip)) < 0.02
+def test_the_measured_disturbance_ignores_the_robots_own_motion(g1_spec: RobotSpec) -> None:
+    """The robot shifts its CoM by 3 cm and back: its CoP swings, but no external force acts:
+    the measured disturbance stays near zero while the raw CoP reads a large one."""
+    w_cop, w_measured, _ = _measured_disturbance(g1_spec, ComShiftController(g1_spec, (0.03, 0.0), 0.6, 0.4), 1.5)
+    assert np.max(np.abs(w_cop)) > 0.1  # what the CoP shows [m/s²] (measured 0.19)
+    assert np.max(np.abs(w_measured)) < 1e-3  # (measured 4e-5)
 
 
-def test_lip_zmp_keeps_an_external_push(g1_spec: RobotSpec) -> None:
-    """At rest under a push F on the pelvis (height h_p), the LIP reading is the push's moment
-    about the floor over m z_c: F h_p / (m z_c). The correction removes spin only, not forces."""
+def test_the_measured_disturbance_is_the_push_mapped_onto_the_lip(g1_spec: RobotSpec) -> None:
+    """Standing under a constant push F on the torso body, the measured disturbance is
+    F / m (1 + Δz / h): the force, plus its moment about the CoM (Δz the height of the push above
+    the CoM, h the LIP height) as an acceleration."""
     force = 15.0
-    _, w_lip, pelvis_height = _lip_disturbance(g1_spec, 2.0, force_n=force)
-    model = g1_spec.load_model()
-    data = mujoco.MjData(model)
-    standing_state(g1_spec, model, data)
-    com_height = MujocoRobot(g1_spec, model, data).com()[0][2]
-    expected = force * pelvis_height / (g1_spec.mass_kg * com_height)
-    assert np.mean(w_lip[-50:]) == pytest.approx(expected, rel=0.05)
+    _, w_measured, sim = _measured_disturbance(g1_spec, StandingController(g1_spec), 1.5, force_n=force)
+    robot = sim.robot
+    lever = sim.data.xipos[sim.model.body(g1_spec.torso_body).id][2] - robot.com()[0][2]
+    expected = force / robot.mass_kg * (1 + lever / g1_spec.com_height_m)
+    np.testing.assert_allclose(w_measured[-50:], expected, rtol=0.03)
 
 
 def test_no_contact_gives_no_zmp(op3_spec: RobotSpec) -> None:
@@ -318,15 +308,8 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
 
 
 @pytest.mark.parametrize("kwargs,message", [
-    ({"disturbance_average_strides": -1.0}, "disturbance_average_strides"),
-    ({"disturbance_average_strides": float("nan")}, "disturbance_average_strides"),
-    ({"measured_dcm_band_m": (0.01,)}, "measured_dcm_band_m"),
-    ({"measured_dcm_band_m": (0.01, -0.01)}, "measured_dcm_band_m"),
-    ({"state_feedback_gain": 1.5}, "state_feedback_gain"),
-    ({"path_feedback_gain": -0.1}, "path_feedback_gain"),
-    ({"path_feedback_gain": float("nan")}, "path_feedback_gain"),
-    ({"dcm_error_envelope_m": ((0.0, 0.01),)}, "dcm_error_envelope_m"),
-    ({"dcm_error_envelope_m": ((-0.01, 0.01), (-0.01, 0.01)), "measured_dcm_band_m": (0.01, 0.01)}, "not both"),
+    ({"estimator": "exact"}, "estimator"),
+    ({"estimator": None}, "estimator"),
 ])
 def test_bad_walk_settings_raise_parameter_error(kwargs, message):
     from robust_ismpc.exceptions import ParameterError

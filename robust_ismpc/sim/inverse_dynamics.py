@@ -28,6 +28,7 @@ pressure to keep the CoM on its reference: it is the balance feedback the servo 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, fields
 
@@ -141,28 +142,62 @@ def _yaw_matrix(yaw_rad: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _state_index(model: mujoco.MjModel, scene: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Indices into the scene's ``qpos`` and ``qvel`` of every coordinate of ``model``, whose
+    joints the scene has under the same names (its free joint: the one of the same body)."""
+    qpos, qvel = [], []
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name:
+            k = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_JOINT, name)
+        else:
+            body = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_BODY, model.body(model.jnt_bodyid[j]).name)
+            k = int(scene.body_jntadr[body]) if body >= 0 else -1
+        if k < 0 or scene.jnt_type[k] != model.jnt_type[j]:
+            raise ParameterError(f"joint {name or j!r} of the robot is not in the simulated scene")
+        n_q = {0: 7, 1: 4}.get(int(model.jnt_type[j]), 1)
+        n_v = {0: 6, 1: 3}.get(int(model.jnt_type[j]), 1)
+        qpos += range(int(scene.jnt_qposadr[k]), int(scene.jnt_qposadr[k]) + n_q)
+        qvel += range(int(scene.jnt_dofadr[k]), int(scene.jnt_dofadr[k]) + n_v)
+    return np.array(qpos, dtype=int), np.array(qvel, dtype=int)
+
+
 class InverseDynamicsQp:
     """Joint torques that realise a gait reference on a torque-controlled MuJoCo robot.
+
+    The QP uses a model of the robot alone (the robot file's), whose state is copied from the
+    simulated scene at every call: like a controller on a real robot it does not know the
+    objects of the scene (a bag hanging from an arm, a ball), which reach it only through the
+    disturbance estimate of the reference.
 
     Parameters
     ----------
     robot : MujocoRobot
-        The robot in a simulation whose actuators are torque motors (``ctrl`` = torque): its
-        sole frames and sizes, root body, model and data.
+        The robot in a simulation whose actuators are torque motors (``ctrl`` = torque).
     actuators : ActuatorMap
-        Actuator ↔ joint indices (simulation and IK models).
+        Actuator ↔ joint indices of the simulation and IK models (the actuators' order is the
+        order of the returned torques).
     settings : TorqueControlSettings
     """
 
     def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings) -> None:
-        self.robot, self.actuators, self.settings = robot, actuators, settings
-        self.model, self.data = robot.model, robot.data
+        self.settings = settings
+        self.scene_data = robot.data
+        self.model = copy.deepcopy(robot.spec.load_model())
+        self.data = mujoco.MjData(self.model)
+        self.robot = MujocoRobot(robot.spec, self.model, self.data)
+        self._scene_qpos, self._scene_qvel = _state_index(self.model, robot.model)
+        self.actuators = actuators
         model = self.model
+        own = ActuatorMap(model, model)  # the same actuators, indexed in the robot's own model
+        if own.sim_dof_index.shape != actuators.sim_dof_index.shape:
+            raise ParameterError("the simulated scene and the robot model have different actuators")
         self._body = {s: robot.foot_body_id(s) for s in SIDES}
         self._half_length = 0.5 * robot.spec.sole_length_m * settings.cop_margin
         self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
         self._root = robot.root_id
-        self._dof = actuators.sim_dof_index
+        self._dof = own.sim_dof_index
+        self._qpos_index = own.sim_qpos_index
         self._friction_nm = model.dof_frictionloss[self._dof].copy()
         self._limits = np.where(
             model.jnt_actfrclimited[model.dof_jntid[self._dof]][:, None],
@@ -205,6 +240,10 @@ class InverseDynamicsQp:
             After more than 50 failed solves in the run.
         """
         m, d, s = self.model, self.data, self.settings
+        scene = self.scene_data
+        d.qpos[:] = scene.qpos[self._scene_qpos]
+        d.qvel[:] = scene.qvel[self._scene_qvel]
+        d.time = scene.time
         mujoco.mj_forward(m, d)
         nv = m.nv
         n = nv + 12
@@ -291,7 +330,7 @@ class InverseDynamicsQp:
                       s.root_weight))
         # posture towards the IK configuration
         act = self.actuators
-        q = d.qpos[act.sim_qpos_index]
+        q = d.qpos[self._qpos_index]
         v = qvel[self._dof]
         row = np.zeros((len(self._dof), n))
         row[np.arange(len(self._dof)), self._dof] = 1.0

@@ -34,7 +34,7 @@ import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import mujoco
@@ -46,7 +46,7 @@ from ..robots.spec import RobotSpec
 from ..wbik import ActuatorMap, IkSettings, WholeBodyIk
 from .disturbances import Disturbance, ForceSchedule, SceneItem, build_scene, set_scene_initial_state
 from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
-from .mujoco_robot import FallCriteria, MujocoRobot, SolePose, distance_outside, standing_state
+from .mujoco_robot import ContactState, FallCriteria, MujocoRobot, SolePose, distance_outside, standing_state
 from .video import VideoRecorder, VideoSettings
 
 logger = logging.getLogger("robust_ismpc")
@@ -324,6 +324,8 @@ class MujocoSimulation:
         self._ik_qacc = np.zeros(self.ik.model.nv)
         self._reference: GaitReference | None = None  # the last commanded reference (torque control)
         self.mean_horizontal_contact_force_n: np.ndarray | None = None  # none before the first period
+        self._mean_contact_moment_nm: np.ndarray | None = None
+        self._previous_momentum: np.ndarray | None = None
         self._targets = self.actuators.targets(self.ik.qpos)
         self._target_vel = np.zeros(self.model.nu)
         self._feedforward = np.zeros(self.model.nu)
@@ -392,19 +394,44 @@ class MujocoSimulation:
         render_s = 0.0
         motors = not self.actuators.is_position.all()
         contact_force = np.zeros(2)
+        contact_moment = np.zeros(3)
         for _ in range(self.substeps):
             force = self.forces.apply(self.data, self.data.time)
             if motors:
                 self._apply_targets()
             mujoco.mj_step(self.model, self.data)
-            # after mj_step the contacts and their forces are those the step applied
-            contact_force += self.robot.contacts().horizontal_force_n
+            # after mj_step the contacts, their forces and the body positions are those of the
+            # state the step started from: the forces the step applied, and where
+            contacts = self.robot.contacts()
+            contact_force += contacts.horizontal_force_n
+            contact_moment += contacts.moment_about(self.robot.com()[0])
             if recorder is not None and recorder.due(self.data.time):
                 start = time.perf_counter()
                 recorder.capture(self.data)
                 render_s += time.perf_counter() - start
         self.mean_horizontal_contact_force_n = contact_force / self.substeps
+        self._mean_contact_moment_nm = contact_moment / self.substeps
         return force, render_s
+
+    def measure(self) -> tuple[Measurement, ContactState]:
+        """The controller's measurement at the current state (:meth:`MujocoRobot.measure`) with
+        the contact force and the external moment averaged over the period that just ended.
+
+        The external moment about the CoM is ``τ = ΔL / δ - M̄``, the change of the centroidal
+        angular momentum over the period minus the mean moment of the contact forces about the
+        CoM; the robot's own swinging and spinning are made by the contacts and cancel. It is
+        reported as ``(τ_y, -τ_x) / (m h)`` (``Measurement.external_moment_acc_mps2``).
+        """
+        moment_acc = None
+        robot = self.robot
+        measurement, contacts = robot.measure(mean_horizontal_force_n=self.mean_horizontal_contact_force_n)
+        momentum = robot.angular_momentum()
+        if self._previous_momentum is not None and self._mean_contact_moment_nm is not None:
+            torque = (momentum - self._previous_momentum) / self.settings.control_period_s - self._mean_contact_moment_nm
+            moment_acc = np.array([torque[1], -torque[0]]) / (robot.mass_kg * self.spec.com_height_m)
+            measurement = replace(measurement, external_moment_acc_mps2=moment_acc)
+        self._previous_momentum = momentum
+        return measurement, contacts
 
     def has_fallen(self) -> bool:
         """Fall criteria on the current state."""
@@ -478,7 +505,7 @@ def run_simulation(
         for k in range(n_ticks):
             t_s = t0_sim + k * period
             a = time.perf_counter()
-            measurement, contacts = robot.measure(mean_horizontal_force_n=sim.mean_horizontal_contact_force_n)
+            measurement, contacts = sim.measure()
             left, right = robot.sole_pose("left"), robot.sole_pose("right")
             polygon = robot.support_polygon(contacts)
             outside = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)

@@ -65,6 +65,10 @@ class ContactState:
         Centre of pressure of all foot contacts (the measured ZMP) [m]; None without contact.
     horizontal_force_n : ndarray, shape (2,)
         Sum of the horizontal (x, y) contact forces on both feet [N], world frame.
+    force_n : ndarray, shape (3,)
+        Sum of the contact forces on both feet [N], world frame.
+    moment_origin_nm : ndarray, shape (3,)
+        Their moment about the world origin, ``sum p_i x f_i`` [N m].
     """
 
     left_force_n: float
@@ -75,6 +79,12 @@ class ContactState:
     right_cop_m: np.ndarray | None
     cop_m: np.ndarray | None
     horizontal_force_n: np.ndarray
+    force_n: np.ndarray
+    moment_origin_nm: np.ndarray
+
+    def moment_about(self, point_m: np.ndarray) -> np.ndarray:
+        """Moment of the contact forces about ``point_m`` (3,) [N m], shape (3,)."""
+        return self.moment_origin_nm - np.cross(point_m, self.force_n)
 
 
 def _yaw_of(rot: np.ndarray) -> float:
@@ -350,7 +360,8 @@ class MujocoRobot:
         """
         m, d = self.model, self.data
         fz = np.zeros(2)
-        horizontal = np.zeros(2)
+        force_sum = np.zeros(3)
+        moment_origin = np.zeros(3)
         moment = np.zeros((2, 2))  # per side: sum(p_xy f_z - p_z f_xy)
         for i in range(d.ncon):
             con = d.contact[i]
@@ -368,7 +379,8 @@ class MujocoRobot:
                 continue
             p = con.pos
             fz[side] += force[2]
-            horizontal += force[:2]
+            force_sum += force
+            moment_origin += np.cross(p, force)
             moment[side] += p[:2] * force[2] - p[2] * force[:2]
         in_contact = fz > self.contact_threshold_n
         cops: list[np.ndarray | None] = [moment[s] / fz[s] if in_contact[s] else None for s in range(2)]
@@ -382,7 +394,9 @@ class MujocoRobot:
             left_cop_m=cops[0],
             right_cop_m=cops[1],
             cop_m=cop,
-            horizontal_force_n=horizontal,
+            horizontal_force_n=force_sum[:2].copy(),
+            force_n=force_sum,
+            moment_origin_nm=moment_origin,
         )
 
     def support_polygon(self, contacts: ContactState | None = None) -> np.ndarray:
@@ -403,8 +417,8 @@ class MujocoRobot:
         return convex_hull(np.vstack(corners))
 
     # ------------------------------------------------------------------ measurement
-    def measure(self, forward: bool = True, mean_horizontal_force_n: np.ndarray | None = None
-                ) -> tuple[Measurement, ContactState]:
+    def measure(self, forward: bool = True, mean_horizontal_force_n: np.ndarray | None = None,
+                external_moment_acc_mps2: np.ndarray | None = None) -> tuple[Measurement, ContactState]:
         """The controller's measurement and the contact state.
 
         ``contact_acc_mps2`` is the horizontal contact force per unit mass over the control
@@ -419,6 +433,9 @@ class MujocoRobot:
             to the current state (cheap; leave True unless the caller just did it).
         mean_horizontal_force_n : ndarray, shape (2,), optional
             Horizontal contact force averaged over the last control period [N] (world frame).
+        external_moment_acc_mps2 : ndarray, shape (2,), optional
+            Passed on as the measurement's ``external_moment_acc_mps2``
+            (:meth:`~robust_ismpc.sim.mujoco_loop.MujocoSimulation.measure` computes it).
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
@@ -427,7 +444,9 @@ class MujocoRobot:
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
         force = contacts.horizontal_force_n if mean_horizontal_force_n is None else mean_horizontal_force_n
         contact_acc = np.asarray(force, dtype=float)[:2] / self.mass_kg
-        return Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, contact_acc_mps2=contact_acc), contacts
+        measurement = Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, contact_acc_mps2=contact_acc,
+                                  external_moment_acc_mps2=external_moment_acc_mps2)
+        return measurement, contacts
 
 
 @dataclass(frozen=True)

@@ -229,7 +229,7 @@ def run_mujoco_spec(
         for k in range(n_ticks):
             t_s = k * dt
             a = time.perf_counter()
-            measurement, contacts = robot.measure(mean_horizontal_force_n=sim.mean_horizontal_contact_force_n)
+            measurement, contacts = sim.measure()
             left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
             polygon = robot.support_polygon(contacts)
