@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
@@ -86,3 +88,55 @@ def g1_spec() -> RobotSpec:
 @pytest.fixture(scope="session")
 def op3_spec() -> RobotSpec:
     return load_robot("op3")
+
+
+@dataclass
+class SteppedRun:
+    """What :func:`step_simulation` recorded, one row per control period."""
+
+    com_pos_m: np.ndarray
+    ref_com_pos_m: np.ndarray
+    left_contact: np.ndarray
+    right_contact: np.ndarray
+    applied_force_n: np.ndarray
+    zmp_outside_m: np.ndarray
+    fallen: bool
+    fall_time_s: float | None
+    render_s: float
+
+    @property
+    def max_zmp_outside_m(self) -> float:
+        """Largest distance of the measured CoP outside the support polygon [m] (0 inside)."""
+        finite = self.zmp_outside_m[np.isfinite(self.zmp_outside_m)]
+        return float(finite.max()) if finite.size else 0.0
+
+
+def step_simulation(sim, controller, duration_s: float, recorder=None, stop_on_fall: bool = True) -> SteppedRun:
+    """Step ``sim`` with ``controller`` (``step(t_s, measurement) -> GaitReference``) for
+    ``duration_s``, one control period at a time, as the product loop does."""
+    from robust_ismpc.sim.mujoco_robot import distance_outside
+
+    period = sim.settings.control_period_s
+    rows = {k: [] for k in ("com", "ref", "left", "right", "force", "outside")}
+    fallen, fall_time, render_s = False, None, 0.0
+    for _ in range(int(round(duration_s / period))):
+        measurement, contacts = sim.measure()
+        reference = controller.step(float(sim.data.time), measurement)
+        sim.command(reference)
+        force, render = sim.advance(recorder)
+        render_s += render
+        polygon = sim.robot.support_polygon(contacts)
+        rows["com"].append(measurement.com_pos_m)
+        rows["ref"].append(reference.com_pos_m)
+        rows["left"].append(contacts.left_in_contact)
+        rows["right"].append(contacts.right_in_contact)
+        rows["force"].append(force)
+        rows["outside"].append(np.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon))
+        if sim.has_fallen():
+            fallen, fall_time = True, float(sim.data.time)
+            if stop_on_fall:
+                break
+    if recorder is not None:
+        recorder.close()
+    return SteppedRun(np.array(rows["com"]), np.array(rows["ref"]), np.array(rows["left"]), np.array(rows["right"]),
+                      np.array(rows["force"]), np.array(rows["outside"]), fallen, fall_time, render_s)

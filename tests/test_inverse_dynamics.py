@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from mujoco_fixtures import ComShiftController, g1_spec  # noqa: F401  (fixtures)
+from mujoco_fixtures import ComShiftController, g1_spec, step_simulation  # noqa: F401  (fixtures)
 
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.forces import ForceWindow
 from robust_ismpc.planner import WalkCommand
 from robust_ismpc.runner import RunSpec, run
-from robust_ismpc.sim import LoopSettings, MujocoSimulation, TorqueControlSettings, run_simulation
+from robust_ismpc.sim import LoopSettings, MujocoSimulation, TorqueControlSettings
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -44,7 +44,7 @@ def test_solution_obeys_the_dynamics_and_the_contact_cones(g1_spec):
     m, d = qp.model, qp.data  # the QP's own model of the robot, at the simulated state
     checked = 0
     for k in range(150):
-        run_simulation(sim, controller, 0.01)
+        step_simulation(sim, controller, 0.01)
         if k % 10:
             continue
         qp.torques(sim._reference, sim._ik_qpos, sim._ik_qvel, sim._ik_qacc)  # fresh solve at this state

@@ -15,6 +15,7 @@ from mujoco_fixtures import (  # noqa: F401  (fixtures)
     g1_spec,
     op3_spec,
     robot_spec,
+    step_simulation,
 )
 
 from robust_ismpc.exceptions import ModelError, ParameterError
@@ -30,12 +31,11 @@ from robust_ismpc.sim import (
     Payload,
     SolePose,
     SwingingBall,
+    VideoRecorder,
     VideoSettings,
     build_scene,
     convex_hull,
     distance_outside,
-    run_mujoco,
-    run_simulation,
     sole_corners,
     standing_state,
 )
@@ -67,7 +67,7 @@ def test_cop_equals_com_projection_when_still(robot_spec: RobotSpec) -> None:
     """After settling, the CoP from the contact forces equals the CoM ground projection (< 3 mm)."""
     sim = MujocoSimulation(robot_spec)
     controller = StandingController(robot_spec)
-    trace = run_simulation(sim, controller, 1.5)
+    trace = step_simulation(sim, controller, 1.5)
     measurement, contacts = sim.robot.measure()
     assert contacts.left_in_contact and contacts.right_in_contact
     assert np.linalg.norm(measurement.com_vel_mps) < 5e-3
@@ -193,7 +193,7 @@ def test_payload_exists_swings_and_is_not_robot_mass(g1_spec: RobotSpec) -> None
     assert sim.model.body_mass[body] == pytest.approx(2.0)
     assert sim.robot.mass_kg == pytest.approx(g1_spec.mass_kg)
     x0 = sim.data.xipos[body][0] - sim.data.xpos[sim.robot.root_id][0]
-    trace = run_simulation(sim, StandingController(g1_spec), 0.3)
+    trace = step_simulation(sim, StandingController(g1_spec), 0.3)
     x1 = sim.data.xipos[body][0] - sim.data.xpos[sim.robot.root_id][0]
     assert x0 < -0.1 and x1 > x0 + 0.1  # swung through
     assert not trace.fallen
@@ -230,7 +230,7 @@ def test_fall_criteria() -> None:
 def test_strong_push_makes_robot_fall(op3_spec: RobotSpec) -> None:
     """A push far beyond what standing can absorb is detected as a fall."""
     push = Force(fx_n=25.0, fy_n=0.0, t_start_s=0.2, t_end_s=0.6)
-    trace = run_mujoco(op3_spec, StandingController(op3_spec), 2.0, [push])
+    trace = step_simulation(MujocoSimulation(op3_spec, [push]), StandingController(op3_spec), 2.0)
     assert trace.fallen and trace.fall_time_s is not None and trace.fall_time_s < 2.0
     assert trace.applied_force_n[30, 0] == pytest.approx(25.0)
 
@@ -238,9 +238,9 @@ def test_strong_push_makes_robot_fall(op3_spec: RobotSpec) -> None:
 def test_standing_loop_does_not_fall(robot_spec: RobotSpec) -> None:
     """Standing in closed loop for 3 s keeps the robot up with the CoM on its reference."""
     controller = StandingController(robot_spec)
-    trace = run_mujoco(robot_spec, controller, 3.0)
+    trace = step_simulation(MujocoSimulation(robot_spec), controller, 3.0)
     assert not trace.fallen
-    assert len(trace.t_s) == 300 and controller.calls == 300
+    assert len(trace.com_pos_m) == 300 and controller.calls == 300
     assert np.all(trace.left_contact[5:]) and np.all(trace.right_contact[5:])  # after touchdown
     assert np.abs(trace.com_pos_m[-50:, :2] - trace.ref_com_pos_m[-50:, :2]).max() < 3e-3
     assert trace.max_zmp_outside_m == 0.0
@@ -250,7 +250,7 @@ def test_com_shift_is_tracked(robot_spec: RobotSpec) -> None:
     """A CoM reference shifted by a few cm is reached within 5 mm after 1 s."""
     shift = np.array([0.02, 0.03]) * robot_spec.com_height_m / 0.6
     controller = ComShiftController(robot_spec, (shift[0], shift[1]), t_start_s=0.2, ramp_s=0.6)
-    trace = run_mujoco(robot_spec, controller, 1.8)
+    trace = step_simulation(MujocoSimulation(robot_spec), controller, 1.8)
     assert not trace.fallen
     final = trace.com_pos_m[-20:, :2].mean(axis=0)
     np.testing.assert_allclose(final, controller.target(10.0)[:2], atol=5e-3)
@@ -296,15 +296,17 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
     if not _offscreen_gl_works():
         pytest.skip(f"no offscreen OpenGL (MUJOCO_GL={os.environ.get('MUJOCO_GL')})")
     path = tmp_path / "stand.mp4"
-    trace = run_mujoco(op3_spec, StandingController(op3_spec), 0.5,
-                       video=VideoSettings(path=path, fps=30, width=320, height=240, distance_m=1.0))
+    sim = MujocoSimulation(op3_spec)
+    recorder = VideoRecorder(sim.model, VideoSettings(path=path, fps=30, width=320, height=240, distance_m=1.0),
+                             op3_spec.root_body)
+    trace = step_simulation(sim, StandingController(op3_spec), 0.5, recorder)
     assert path.stat().st_size > 1000
     import imageio.v2 as imageio
 
     reader = imageio.get_reader(str(path))
     frames = sum(1 for _ in reader)
     assert 14 <= frames <= 16
-    assert trace.times.render_s > 0
+    assert trace.render_s > 0
 
 
 @pytest.mark.parametrize("kwargs,message", [

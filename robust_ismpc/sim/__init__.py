@@ -14,11 +14,7 @@ from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
 from .mujoco_loop import (
     LoopSettings,
     MujocoSimulation,
-    MujocoTrace,
-    PhaseTimes,
     initial_state,
-    run_mujoco,
-    run_simulation,
 )
 from .mujoco_robot import (
     ContactState,
@@ -42,9 +38,7 @@ __all__ = [
     "LoopSettings",
     "MujocoRobot",
     "MujocoSimulation",
-    "MujocoTrace",
     "Payload",
-    "PhaseTimes",
     "SolePose",
     "SwingingBall",
     "TorqueControlSettings",
@@ -55,8 +49,6 @@ __all__ = [
     "convex_hull",
     "distance_outside",
     "initial_state",
-    "run_mujoco",
-    "run_simulation",
     "sole_corners",
     "standing_state",
 ]

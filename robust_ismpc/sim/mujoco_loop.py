@@ -1,30 +1,23 @@
-"""Closed loop in MuJoCo: measurement -> controller -> whole-body IK -> joint servos -> physics.
+"""A robot scene in MuJoCo, stepped one control period at a time.
 
-Every control period (δ = 0.01 s by default) the loop builds a
-:class:`~robust_ismpc.reference.Measurement`, calls ``controller.step(t_s, measurement)``, runs
-one whole-body IK step on the returned :class:`~robust_ismpc.reference.GaitReference`, and sets
-the actuator commands. Between control ticks it steps the physics at the model's timestep,
-writing disturbance forces into ``xfrc_applied`` before every step.
+:class:`MujocoSimulation` holds the model (robot plus scene objects), the measurement, the
+whole-body IK and the actuators. The closed loop that uses it, one control period at a time
+(:meth:`~MujocoSimulation.measure`, ``controller.step``, :meth:`~MujocoSimulation.command`,
+:meth:`~MujocoSimulation.advance`), is :func:`robust_ismpc.sim.run.run_mujoco_spec`;
+docs/closed-loop.md describes one cycle.
 
-Actuators: position servos (``ctrl`` = joint target, as in the G1 and OP3 Menagerie models)
-receive the IK joint angles plus a static feedforward ``τ_ff / kp``; torque motors receive
-``τ_ff + kp (q_ik - q) - kd q̇`` evaluated at every physics step. ``τ_ff`` holds the IK reference
-configuration against gravity with the weight shared between the feet according to the reference
-ZMP (:meth:`~robust_ismpc.wbik.WholeBodyIk.static_torques`). Without it the stiff-but-finite
-servos sag under load (G1: knees 0.05 rad, pelvis pitched 2.3 deg, CoM 1 cm behind and 7 mm
-below the reference) and a lateral CoM shift overshoots by 60 %.
+Actuators, torque control (the default of every run): the actuators of a copy of the model become
+torque motors, driven at every physics step by an inverse-dynamics QP that tracks the reference
+with force feedback (:mod:`robust_ismpc.sim.inverse_dynamics`); the IK configuration is its
+posture target.
 
-With ``LoopSettings.dynamic_feedforward`` the static torques become the inverse dynamics of the IK
-reference motion (joint velocities and accelerations by finite differences of successive IK
-configurations) and the servo targets get ``kd q̇_ref / kp`` added, so that the servo damping
-``-kd q̇`` no longer brakes the planned motion (G1 first steps: joint tracking errors 0.085 →
-0.015 rad, stance-foot tilt 5-10° → below 1°). The IK reference must then be smooth: a CoM
-target that jumps every tick with the measurement (``ComStabilizer``) turns the finite-difference
-accelerations into a positive feedback and the robot falls within 0.3 s.
-
-With ``LoopSettings.torque_control`` the actuators of a copy of the model become torque motors,
-driven at every physics step by an inverse-dynamics QP that tracks the reference with force
-feedback (:mod:`robust_ismpc.sim.inverse_dynamics`); the IK configuration is its posture target.
+Servo playback (``whole_body="servo"``): position servos (``ctrl`` = joint target, as in the G1
+and OP3 Menagerie models) receive the IK joint angles plus a static feedforward ``τ_ff / kp``
+that holds the IK configuration against gravity, the weight shared between the feet according
+to the reference ZMP (:meth:`~robust_ismpc.wbik.WholeBodyIk.static_torques`). With
+``LoopSettings.dynamic_feedforward`` the static torques become the inverse dynamics of the IK
+reference motion and the servo targets get ``kd q̇_ref / kp`` added, so that the servo damping
+no longer brakes the planned motion (G1 first steps: joint tracking errors 0.085 → 0.015 rad).
 """
 
 from __future__ import annotations
@@ -35,7 +28,6 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -46,18 +38,10 @@ from ..robots.spec import RobotSpec
 from ..wbik import ActuatorMap, IkSettings, WholeBodyIk
 from .disturbances import Disturbance, ForceSchedule, SceneItem, build_scene, set_scene_initial_state
 from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
-from .mujoco_robot import ContactState, FallCriteria, MujocoRobot, SolePose, distance_outside, standing_state
-from .video import VideoRecorder, VideoSettings
+from .mujoco_robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
+from .video import VideoRecorder
 
 logger = logging.getLogger("robust_ismpc")
-
-
-class Controller(Protocol):
-    """Anything that turns a measurement into a gait reference once per control period."""
-
-    def step(self, t_s: float, measurement: Measurement) -> GaitReference:
-        """Reference for the cycle starting at ``t_s`` [s]."""
-        ...
 
 
 @dataclass(frozen=True)
@@ -129,112 +113,6 @@ class LoopSettings:
             raise ParameterError(
                 f"LoopSettings.torque_control must be TorqueControlSettings or None, got {type(self.torque_control).__name__}"
             )
-
-
-@dataclass(frozen=True)
-class PhaseTimes:
-    """Wall-clock time spent in each phase of the loop [s]."""
-
-    measure_s: float
-    controller_s: float
-    ik_s: float
-    physics_s: float
-    render_s: float
-    total_s: float
-
-
-@dataclass(frozen=True)
-class MujocoTrace:
-    """Time series of a MuJoCo run, one row per control tick (world frame).
-
-    Attributes
-    ----------
-    t_s : ndarray, shape (N,)
-        Tick times [s].
-    com_pos_m, com_vel_mps : ndarray, shape (N, 3)
-        Measured CoM position [m] and velocity [m/s].
-    zmp_m : ndarray, shape (N, 2)
-        Measured centre of pressure [m] (NaN without contact).
-    ref_com_pos_m : ndarray, shape (N, 3)
-        Reference CoM returned by the controller at the tick [m].
-    ref_zmp_m : ndarray, shape (N, 2)
-        Reference ZMP [m].
-    left_sole_pos_m, right_sole_pos_m : ndarray, shape (N, 3)
-        Measured sole positions [m].
-    left_sole_yaw_rad, right_sole_yaw_rad : ndarray, shape (N,)
-        Measured sole yaws [rad].
-    ref_left_sole_pos_m, ref_right_sole_pos_m : ndarray, shape (N, 3)
-        Reference sole positions [m].
-    left_contact, right_contact : ndarray of bool, shape (N,)
-        Feet in contact.
-    left_force_n, right_force_n : ndarray, shape (N,)
-        Normal force on each foot [N].
-    zmp_outside_m : ndarray, shape (N,)
-        Distance of the measured CoP outside the support polygon [m] (0 inside, NaN without
-        contact).
-    applied_force_n : ndarray, shape (N, 3)
-        Total disturbance force at the tick [N].
-    ik_com_error_m : ndarray, shape (N,)
-        CoM error of the IK reference configuration after its step [m].
-    fallen : bool
-        The robot fell (the trace ends at the fall when ``stop_on_fall``).
-    fall_time_s : float or None
-        Time of the fall [s].
-    sim_time_s : float
-        Simulated time covered [s].
-    times : PhaseTimes
-        Wall-clock time per phase.
-    """
-
-    t_s: np.ndarray
-    com_pos_m: np.ndarray
-    com_vel_mps: np.ndarray
-    zmp_m: np.ndarray
-    ref_com_pos_m: np.ndarray
-    ref_zmp_m: np.ndarray
-    left_sole_pos_m: np.ndarray
-    right_sole_pos_m: np.ndarray
-    left_sole_yaw_rad: np.ndarray
-    right_sole_yaw_rad: np.ndarray
-    ref_left_sole_pos_m: np.ndarray
-    ref_right_sole_pos_m: np.ndarray
-    left_contact: np.ndarray
-    right_contact: np.ndarray
-    left_force_n: np.ndarray
-    right_force_n: np.ndarray
-    zmp_outside_m: np.ndarray
-    applied_force_n: np.ndarray
-    ik_com_error_m: np.ndarray
-    fallen: bool
-    fall_time_s: float | None
-    sim_time_s: float
-    times: PhaseTimes
-
-    @property
-    def realtime_factor(self) -> float:
-        """Simulated time divided by wall-clock time of the loop."""
-        return self.sim_time_s / self.times.total_s if self.times.total_s > 0 else math.inf
-
-    @property
-    def max_zmp_outside_m(self) -> float:
-        """Largest distance of the measured CoP outside the support polygon [m]."""
-        valid = self.zmp_outside_m[np.isfinite(self.zmp_outside_m)]
-        return float(valid.max()) if valid.size else 0.0
-
-    @property
-    def ik_ms_per_step(self) -> float:
-        """Mean wall time of one IK step [ms]."""
-        return 1e3 * self.times.ik_s / max(len(self.t_s), 1)
-
-
-_VECTOR_FIELDS = {
-    "com_pos_m": 3, "com_vel_mps": 3, "zmp_m": 2, "ref_com_pos_m": 3, "ref_zmp_m": 2,
-    "left_sole_pos_m": 3, "right_sole_pos_m": 3, "ref_left_sole_pos_m": 3, "ref_right_sole_pos_m": 3,
-    "applied_force_n": 3,
-}
-_SCALAR_FIELDS = ("t_s", "left_sole_yaw_rad", "right_sole_yaw_rad", "left_force_n", "right_force_n",
-                  "zmp_outside_m", "ik_com_error_m")
-_BOOL_FIELDS = ("left_contact", "right_contact")
 
 
 def _make_torque_motors(model: mujoco.MjModel) -> None:
@@ -438,129 +316,3 @@ class MujocoSimulation:
         return self.settings.fall.has_fallen(
             self.robot.root_height_m(), self.spec.base_height_m, self.robot.torso_tilt_rad()
         )
-
-
-def run_mujoco(
-    spec: RobotSpec,
-    controller: Controller,
-    duration_s: float,
-    disturbances: Sequence[Disturbance] = (),
-    *,
-    scene_items: Sequence[SceneItem] = (),
-    settings: LoopSettings | None = None,
-    video: VideoSettings | None = None,
-) -> MujocoTrace:
-    """Run a controller on a robot in MuJoCo from the standing posture.
-
-    Parameters
-    ----------
-    spec : RobotSpec
-        The robot.
-    controller : Controller
-        Object with ``step(t_s, measurement) -> GaitReference``; prepare it (e.g. ``reset``) from
-        :func:`initial_state` before calling.
-    duration_s : float
-        Simulated duration [s].
-    disturbances : sequence of Force or Impulse
-        Forces on robot bodies.
-    scene_items : sequence of Payload or SwingingBall
-        Objects added to the scene.
-    settings : LoopSettings, optional
-    video : VideoSettings, optional
-        Record an mp4 with a tracking camera.
-
-    Returns
-    -------
-    MujocoTrace
-        The recorded time series, fall flag and timings.
-    """
-    if not isinstance(duration_s, (int, float)) or not duration_s > 0 or not math.isfinite(duration_s):
-        raise ParameterError(f"duration_s must be a finite number > 0, got {duration_s!r}")
-    sim = MujocoSimulation(spec, disturbances, scene_items, settings)
-    return run_simulation(sim, controller, duration_s, video=video)
-
-
-def run_simulation(
-    sim: MujocoSimulation,
-    controller: Controller,
-    duration_s: float,
-    *,
-    video: VideoSettings | None = None,
-) -> MujocoTrace:
-    """Run ``controller`` on an already built :class:`MujocoSimulation` from its current state."""
-    settings = sim.settings
-    period = settings.control_period_s
-    n_ticks = int(math.floor(duration_s / period + 1e-9))
-    rec: dict[str, np.ndarray] = {k: np.full((n_ticks, n), np.nan) for k, n in _VECTOR_FIELDS.items()}
-    rec.update({k: np.full(n_ticks, np.nan) for k in _SCALAR_FIELDS})
-    rec.update({k: np.zeros(n_ticks, dtype=bool) for k in _BOOL_FIELDS})
-    t_measure = t_ctrl = t_ik = t_phys = t_render = 0.0
-    recorder = VideoRecorder(sim.model, video, sim.spec.root_body) if video is not None else None
-    fallen, fall_time = False, None
-    robot = sim.robot
-    t0_sim = sim.data.time
-    n_done = 0
-    wall_start = time.perf_counter()
-    try:
-        for k in range(n_ticks):
-            t_s = t0_sim + k * period
-            a = time.perf_counter()
-            measurement, contacts = sim.measure()
-            left, right = robot.sole_pose("left"), robot.sole_pose("right")
-            polygon = robot.support_polygon(contacts)
-            outside = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)
-            b = time.perf_counter()
-            reference = controller.step(t_s, measurement)
-            c = time.perf_counter()
-            sim.command(reference)
-            d = time.perf_counter()
-            force, render_s = sim.advance(recorder)
-            e = time.perf_counter()
-            t_measure += b - a
-            t_ctrl += c - b
-            t_ik += d - c
-            t_phys += e - d - render_s
-            t_render += render_s
-
-            rec["t_s"][k] = t_s
-            rec["com_pos_m"][k] = measurement.com_pos_m
-            rec["com_vel_mps"][k] = measurement.com_vel_mps
-            if measurement.zmp_m is not None:
-                rec["zmp_m"][k] = measurement.zmp_m
-            rec["ref_com_pos_m"][k] = reference.com_pos_m
-            rec["ref_zmp_m"][k] = reference.zmp_m
-            rec["left_sole_pos_m"][k] = left.pos_m
-            rec["right_sole_pos_m"][k] = right.pos_m
-            rec["left_sole_yaw_rad"][k] = left.yaw_rad
-            rec["right_sole_yaw_rad"][k] = right.yaw_rad
-            rec["ref_left_sole_pos_m"][k] = reference.left_foot.pos_m
-            rec["ref_right_sole_pos_m"][k] = reference.right_foot.pos_m
-            rec["left_contact"][k] = contacts.left_in_contact
-            rec["right_contact"][k] = contacts.right_in_contact
-            rec["left_force_n"][k] = contacts.left_force_n
-            rec["right_force_n"][k] = contacts.right_force_n
-            rec["zmp_outside_m"][k] = outside
-            rec["applied_force_n"][k] = force
-            rec["ik_com_error_m"][k] = np.linalg.norm(sim.ik.com_m() - reference.com_pos_m)
-            n_done = k + 1
-            if sim.has_fallen():
-                fallen, fall_time = True, float(sim.data.time)
-                logger.info("robot %s fell at t = %.2f s", sim.spec.name, fall_time)
-                if settings.stop_on_fall:
-                    break
-    finally:
-        if recorder is not None:
-            recorder.close()
-    total = time.perf_counter() - wall_start
-    if recorder is not None and recorder.frame_count:
-        logger.info("rendered %d frames at %.1f frames/s", recorder.frame_count, recorder.frames_per_second)
-    arrays = {k: v[:n_done] for k, v in rec.items()}
-    return MujocoTrace(
-        **arrays,
-        fallen=fallen,
-        fall_time_s=fall_time,
-        sim_time_s=float(sim.data.time - t0_sim),
-        times=PhaseTimes(
-            measure_s=t_measure, controller_s=t_ctrl, ik_s=t_ik, physics_s=t_phys, render_s=t_render, total_s=total
-        ),
-    )
