@@ -61,6 +61,15 @@ class RobustParams:
         (see :class:`~robust_ismpc.disturbance_filters.PersistenceFilter`) [s], the floor of the mid-range
         target: impulsive pushes are left to the step timing adaptation instead of being
         compensated as if they lasted forever.
+    transient_time_constant_s : float
+        T, how long a fresh disturbance (the part of ŵ that has not yet persisted for
+        ``persistence_s``) is expected to last [s]. The modified stability constraint treats
+        w̃ as constant forever; a disturbance decaying as ``e^{-t/T}`` shifts the DCM by only
+        ``ηT / (1 + ηT)`` of that (docs/derivations.md), so the fresh part enters the target
+        scaled by this factor. Default 0.1 s, the length of a push: on the g1 LIP the robust
+        controller then holds at least 0.9× nominal's impulse in the cells where compensating
+        a push as lasting made it fall first (docs/robust.md). ``math.inf``: the fresh part
+        counts in full.
     governor : bool
         True (default): the fresh estimate (without the persistence window) enters the mid-range
         target as far as the shifted DCM stays inside the exact feasibility region of the current
@@ -85,6 +94,7 @@ class RobustParams:
     delta_max_fraction: float = 0.5
     disturbance_time_constant_s: float = 0.03
     persistence_s: float = 0.12
+    transient_time_constant_s: float = 0.1
     governor: bool = True
     midrange_rate_mps3: float = 10.0
     sta: StaParams | None = None
@@ -99,6 +109,10 @@ class RobustParams:
         if not (isinstance(self.persistence_s, (int, float)) and math.isfinite(self.persistence_s)
                 and self.persistence_s >= 0):
             raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
+        if not (isinstance(self.transient_time_constant_s, (int, float)) and self.transient_time_constant_s > 0
+                and not math.isnan(self.transient_time_constant_s)):
+            raise ParameterError("RobustParams.transient_time_constant_s must be a number > 0 (inf allowed), "
+                                 f"got {self.transient_time_constant_s!r}")
         if not isinstance(self.governor, bool):
             raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
         if not (isinstance(self.disturbance_time_constant_s, (int, float)) and math.isfinite(self.disturbance_time_constant_s)
@@ -186,6 +200,8 @@ class RobustIsmpcController(IsmpcController):
             self.observer = DisturbanceEstimator(params.disturbance_time_constant_s)
             self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
             self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
+            eta_t = self.eta * params.transient_time_constant_s
+            self.transient_weight = 1.0 if math.isinf(eta_t) else eta_t / (1.0 + eta_t)
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
@@ -224,7 +240,9 @@ class RobustIsmpcController(IsmpcController):
                                      measurement.external_moment_acc_mps2)
         self.disturbance_estimate_mps2 = w_hat
         self.persistent_disturbance_mps2 = self.persistence.update(w_hat)
-        self.fresh_disturbance_mps2 = w_hat  # w̃ follows in _mpc_state
+        # the fresh part, expected to decay with transient_time_constant_s; w̃ follows in _mpc_state
+        persistent = self.persistent_disturbance_mps2
+        self.fresh_disturbance_mps2 = persistent + self.transient_weight * (w_hat - persistent)
         self.info.observer_time_s = time.perf_counter() - start
 
     def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
