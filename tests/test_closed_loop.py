@@ -1,68 +1,60 @@
-"""Closed-loop LIP walks: ZMP inside its box at every sample, CoM bounded, T-RO findings (spec §17)."""
+"""The closed loop on the robot: the MPC plans from the measured state, by default."""
+
+from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
-from fixtures import walking_controller
 
-from robust_ismpc.lip_sim import run_lip
-from robust_ismpc.params import MpcParams, robot_params
+from robust_ismpc.forces import ForceWindow
+from robust_ismpc.planner import WalkCommand
+from robust_ismpc.runner import RunSpec, run
 
-WALKS = [
-    ("hrp4", 0.3, 0.0, 0.0),
-    ("g1", 0.3, 0.0, 0.0),
-    ("hrp4", 0.1, 0.0, 0.3),
-    ("g1", 0.1, 0.0, 0.3),
-    ("hrp4", 0.0, 0.05, 0.0),
-    ("g1", 0.0, 0.05, 0.0),
-]
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+PUSH_T = 4.2  # the single support of G1's step 4 at 0.2 m/s starts here
 
 
-def _bounded_walk(controller, duration_s):
-    outcome, rec = run_lip(controller, duration_s)
-    trace = rec.finish(controller.plan, {})
-    return outcome, trace
+def _g1(modules=(), forces=(), duration_s=4.6):
+    return run(RunSpec(robot="g1", sim="mujoco", modules=modules, command=WalkCommand(0.2),
+                       duration_s=duration_s, forces=tuple(forces)))
 
 
-@pytest.mark.parametrize("robot,vx,vy,omega", WALKS)
-def test_30s_walk_keeps_zmp_in_box_and_com_bounded(robot, vx, vy, omega):
-    """30 s of walking: no infeasible QP, ZMP inside its box at every sample, CoM near the ZMP."""
-    params = robot_params(robot)
-    controller = walking_controller(robot, vx, vy, omega, duration_s=30.0)
-    outcome, trace = _bounded_walk(controller, 30.0)
-    assert not outcome.fell, outcome.failure
-    assert np.nansum(trace["infeasible"]) == 0
-    assert np.max(trace["zmp_violation_m"]) < 1e-9
-    com_zmp = np.max(np.hypot(*(trace["com_m"] - trace["zmp_m"]).T))
-    assert com_zmp < 0.5 * params.foot_spacing_m + params.kin_box_x_m
-    # the walk goes where it was told (distance within 15 % of the commanded one for straight walks)
-    if omega == 0.0:
-        walked = trace["com_m"][-1] - trace["com_m"][0]
-        start = controller.plan.ss_start_s[2]
-        expected = np.array([vx, vy]) * (30.0 - start)
-        assert np.linalg.norm(walked - expected) < 0.15 * np.linalg.norm(expected) + 0.05
+def test_a_push_changes_the_nominal_mpc_plan():
+    """G1, nominal IS-MPC, default settings: a 3 N s sideways push changes the MPC's planned ZMP
+    within 0.1 s of its start; before the push the two runs are identical."""
+    pushed = _g1(forces=[ForceWindow(0.0, 30.0, PUSH_T, PUSH_T + 0.1)])
+    calm = _g1()
+    t = pushed.trace["t_s"]
+    before, after = t < PUSH_T - 1e-9, (t >= PUSH_T + 0.05) & (t < PUSH_T + 0.1)
+    zmp_pushed, zmp_calm = pushed.trace["zmp_ref_m"], calm.trace["zmp_ref_m"][: len(t)]
+    np.testing.assert_array_equal(zmp_pushed[before], zmp_calm[before])
+    assert np.max(np.abs(zmp_pushed[after, 1] - zmp_calm[after, 1])) > 2e-3  # [m]
 
 
-def test_truncated_tail_loses_feasibility_where_anticipative_keeps_it():
-    """T-RO §V-B3: short horizon, regular gait - truncated tail fails, anticipative tail walks on."""
-    common = dict(control_horizon_s=0.5, preview_horizon_s=1.5, fix_footsteps=True)
-    truncated = walking_controller("hrp4", 0.3, duration_s=15.0, mpc=MpcParams(tail="truncated", **common))
-    out_t, _ = _bounded_walk(truncated, 15.0)
-    anticipative = walking_controller("hrp4", 0.3, duration_s=15.0, mpc=MpcParams(tail="anticipative", **common))
-    out_a, trace_a = _bounded_walk(anticipative, 15.0)
-    assert out_t.fell and "infeasible" in out_t.failure
-    assert not out_a.fell
-    assert np.max(trace_a["zmp_violation_m"]) < 1e-9
+def test_timing_adaptation_fires_on_the_robot_after_a_push():
+    """G1, timing module alone, default settings: no re-timing before a 6 N s sideways push, at
+    least one within 0.3 s after it starts."""
+    result = _g1(modules=("timing",), forces=[ForceWindow(0.0, 60.0, PUSH_T, PUSH_T + 0.1)], duration_s=5.0)
+    t, adapted = result.trace["t_s"], result.trace["timing_adapted"].astype(bool)
+    assert not adapted[t < PUSH_T - 1e-9].any()
+    assert adapted[(t >= PUSH_T) & (t < PUSH_T + 0.3)].any()
 
 
-def test_tall_robot_stays_bounded():
-    """T-RO §VII: with CoM height 1.6 m IS-MPC keeps the CoM bounded with respect to the ZMP."""
-    robot = robot_params("hrp4").with_values(com_height_m=1.6)
-    mpc = MpcParams(control_horizon_s=1.5, preview_horizon_s=3.0)
-    controller = walking_controller("hrp4", 0.3, duration_s=30.0, mpc=mpc, robot=robot)
-    outcome, trace = _bounded_walk(controller, 30.0)
-    assert not outcome.fell, outcome.failure
-    assert np.max(np.abs(trace["com_m"] - trace["zmp_m"])) < 0.15
-    # bounded, not drifting: the CoM-ZMP gap of the last 10 s is no larger than of the first 20 s
-    t = trace["t_s"]
-    gap = np.abs(trace["com_m"][:, 1] - trace["zmp_m"][:, 1])
-    assert gap[t > 20].max() <= gap[t <= 20].max() + 1e-3
+@pytest.mark.xfail(strict=True, reason="not met: observer alone turns infeasible at 8 of 30 onsets "
+                   "(docs/closed-loop.md, the LIP cases)")
+def test_observer_alone_holds_a_quarter_of_the_lateral_capacity_at_any_onset():
+    """g1 LIP, observer alone: a constant lateral force of ±5.6 N (a quarter of the robust
+    controller's 22.5 N lateral capacity, benchmarks/lip_envelope.py) switched on at any of 15
+    onsets across a stride (2.0-3.4 s) never makes the QP infeasible."""
+    failures = []
+    for force_n in (5.6, -5.6):
+        for k in range(15):
+            t0 = 2.0 + 0.1 * k
+            summary = run(RunSpec(robot="g1", sim="lip", modules=("observer",), command=WalkCommand(0.2),
+                                  duration_s=7.0, forces=(ForceWindow(0.0, force_n, t0, math.inf),))).summary
+            if summary["qp_infeasible_count"]:
+                failures.append((force_n, round(t0, 1)))
+    assert failures == []
