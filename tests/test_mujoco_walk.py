@@ -79,9 +79,10 @@ LONG_WALKS = [
     ("g1", WalkCommand(0.0, 0.0, 0.3)),
     ("op3", WalkCommand(0.15)),
     ("op3", WalkCommand(-0.1)),
-    ("op3", WalkCommand(0.0, 0.05)),
+    pytest.param("op3", WalkCommand(0.0, 0.05), marks=pytest.mark.xfail(
+        strict=True, reason="closed loop: OP3's QP turns infeasible at its first sideways steps (docs/robots.md)")),
     ("op3", WalkCommand(0.0, 0.0, 0.2)),
-    ("op3", WalkCommand(0.0, 0.0, 0.3)),  # fell at 28 s before the path feedback of the landed feet
+    ("op3", WalkCommand(0.0, 0.0, 0.3)),
 ]
 
 
