@@ -1,6 +1,9 @@
-r"""The MPC's start state from the robot's measurement: a steady-state Kalman filter per axis.
+r"""From the robot's measurement: the MPC's start state, and the disturbance.
 
-Per horizontal axis the filter estimates :math:`x = (x_c, \dot x_c)`, the CoM position and
+:class:`StateEstimator`: a steady-state Kalman filter per axis on the CoM and its velocity.
+:class:`DisturbanceEstimator`: the external force per unit mass, measured (see its docstring).
+
+Per horizontal axis the state filter estimates :math:`x = (x_c, \dot x_c)`, the CoM position and
 velocity, on the LIP whose ZMP :math:`x_z` is the MPC's own (the ZMP the controller commanded,
 integrated from its velocity):
 
