@@ -33,13 +33,13 @@ simulation).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .exceptions import ParameterError
 from .lip import discretise
+from .params import check_nonnegative
 
 
 @dataclass(frozen=True)
@@ -62,10 +62,8 @@ class EstimatorParams:
     acc_noise_mps2: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("com_pos_noise_m", "com_vel_noise_mps", "acc_noise_mps2"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-                raise ParameterError(f"EstimatorParams.{name} must be a finite number >= 0, got {value!r}")
+        check_nonnegative("EstimatorParams", com_pos_noise_m=self.com_pos_noise_m,
+                          com_vel_noise_mps=self.com_vel_noise_mps, acc_noise_mps2=self.acc_noise_mps2)
         if self.acc_noise_mps2 == 0 and (self.com_pos_noise_m > 0 or self.com_vel_noise_mps > 0):
             raise ParameterError(
                 "EstimatorParams.acc_noise_mps2 must be > 0 when a measurement noise is: a model without "
@@ -181,9 +179,7 @@ class DisturbanceEstimator:
     """
 
     def __init__(self, time_constant_s: float) -> None:
-        if isinstance(time_constant_s, bool) or not isinstance(time_constant_s, (int, float)) or not (
-                math.isfinite(time_constant_s) and time_constant_s >= 0):
-            raise ParameterError(f"time_constant_s must be a finite number >= 0, got {time_constant_s!r}")
+        check_nonnegative("DisturbanceEstimator", time_constant_s=time_constant_s)
         self.time_constant_s = float(time_constant_s)
         self.reset()
 

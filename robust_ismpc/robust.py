@@ -31,7 +31,7 @@ from .exceptions import InfeasibleMpc, ParameterError
 from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
-from .params import MpcParams, RobotParams
+from .params import MpcParams, RobotParams, check_nonnegative
 from .planner import rotation
 from .qp import QpSolver
 from .reference import Measurement
@@ -115,10 +115,7 @@ class RobustParams:
                                  f"got {self.transient_time_constant_s!r}")
         if not isinstance(self.governor, bool):
             raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
-        if not (isinstance(self.disturbance_time_constant_s, (int, float)) and math.isfinite(self.disturbance_time_constant_s)
-                and self.disturbance_time_constant_s >= 0):
-            raise ParameterError("RobustParams.disturbance_time_constant_s must be a finite number >= 0, "
-                                 f"got {self.disturbance_time_constant_s!r}")
+        check_nonnegative("RobustParams", disturbance_time_constant_s=self.disturbance_time_constant_s)
         if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
                 and self.midrange_rate_mps3 > 0):
             raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
