@@ -198,7 +198,6 @@ class IsmpcController:
         self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
-        self.unplannable_cycles = 0  # cycles planned from a state short of the estimate
         self._predicted_state: np.ndarray | None = None
         self.info = CycleInfo()
 
@@ -261,7 +260,6 @@ class IsmpcController:
                     result = self._solve_qp(retry)
                 except InfeasibleMpc:
                     continue
-                self.unplannable_cycles += 1
                 self.info.dcm_m = retry.dcm_m
                 return result
             self.state[:2] = estimated
