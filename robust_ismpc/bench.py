@@ -93,7 +93,7 @@ def bench_horizon(robot_name: str, C: int, cycles: int, solvers: list[str]) -> d
     controller = IsmpcController(robot, mpc, solver=recorder_solver)
     duration = (cycles + 100) * dt
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
-    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), duration + mpc.preview_horizon_s + 1.0, left, -left)
+    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), controller.plan_duration_s(duration), left, -left)
     controller.reset(plan, np.zeros(2))
     start = time.perf_counter()
     outcome, rec = run_lip(controller, duration)
@@ -156,7 +156,7 @@ def bench_robust(robot_name: str, mpc: MpcParams, cycles: int) -> dict:
     dt = mpc.sampling_period_s
     duration = (cycles + 100) * dt
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
-    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), duration + mpc.preview_horizon_s + 1.0, left, -left)
+    plan = plan_footsteps(robot, WalkCommand(0.2, 0.0, 0.0), controller.plan_duration_s(duration), left, -left)
     controller.reset(plan, np.zeros(2))
     scale = robot.mass_kg / 33.3
     pushes = [ForceWindow(30.0 * scale * (-1) ** i, 0.0, 3.0 + 2.0 * i, 3.1 + 2.0 * i)

@@ -149,6 +149,11 @@ class IsmpcController:
         self.plan: FootstepPlan | None = None
 
     # ------------------------------------------------------------------------------------
+    def plan_duration_s(self, run_s: float) -> float:
+        """How long the footstep plan of a run of ``run_s`` seconds must be [s]: the run, the
+        preview horizon beyond its end and one second more."""
+        return run_s + self.mpc_params.preview_horizon_s + 1.0
+
     def reset(
         self,
         plan: FootstepPlan,

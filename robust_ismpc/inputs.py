@@ -11,6 +11,7 @@ import importlib.util
 from collections.abc import Sequence
 
 from .exceptions import ParameterError
+from .planner import kinematic_box
 
 #: Longest simulated time of one run [s]. A run keeps its trace in memory (about 0.5 kB per
 #: 10 ms tick, 180 MB per hour) and the footstep plan covers the whole walk; an hour is plenty
@@ -61,9 +62,11 @@ def command_limits(params) -> dict[str, tuple[float, str]]:
     faster commands are walked at these speeds.
     """
     T = params.T_step_s
+    lower, upper = kinematic_box(params, 1)
+    sideways_m = float(0.5 * (upper[1] - lower[1]))  # per step: the soles may not come closer than the box allows
     return {
         "--vx": (0.5 * params.kin_box_x_m / T, f"{0.5 * params.kin_box_x_m:g} m forward per {T:g} s step"),
-        "--vy": (0.5 * params.kin_box_y_m / T, f"{0.5 * params.kin_box_y_m:g} m sideways per {T:g} s step"),
+        "--vy": (sideways_m / T, f"{sideways_m:.3g} m sideways per {T:g} s step"),
         "--omega": (params.max_yaw_step_rad / T, f"{params.max_yaw_step_rad:g} rad per {T:g} s step"),
     }
 

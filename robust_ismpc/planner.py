@@ -58,8 +58,17 @@ def rotation(yaw_rad: float | np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
+#: Least lateral gap between the inner edges of the two soles that a footstep may leave [m].
+SOLE_CLEARANCE_M = 0.01
+
+
 def kinematic_box(robot: RobotParams, side: int) -> tuple[np.ndarray, np.ndarray]:
     """Bounds of footstep j relative to footstep j-1, in footstep j-1's frame (spec §5).
+
+    The box of side lengths (``kin_box_x_m``, ``kin_box_y_m``) centred ℓ to the side, with its
+    inner lateral side moved out, if needed, so that the sole centres are at least
+    ``sole_width_m + SOLE_CLEARANCE_M`` apart (at most ℓ): a step that crosses or touches the
+    other foot collides with it on a real robot.
 
     Parameters
     ----------
@@ -70,9 +79,13 @@ def kinematic_box(robot: RobotParams, side: int) -> tuple[np.ndarray, np.ndarray
     -------
     lower, upper : ndarray, shape (2,)
     """
-    centre = np.array([0.0, side * robot.foot_spacing_m])
-    half = 0.5 * np.array([robot.kin_box_x_m, robot.kin_box_y_m])
-    return centre - half, centre + half
+    lower = np.array([-0.5 * robot.kin_box_x_m, robot.foot_spacing_m - 0.5 * robot.kin_box_y_m])
+    upper = np.array([0.5 * robot.kin_box_x_m, robot.foot_spacing_m + 0.5 * robot.kin_box_y_m])
+    # the soles must not overlap: inner edges at least SOLE_CLEARANCE_M apart (never more than ℓ)
+    lower[1] = max(lower[1], min(robot.foot_spacing_m, robot.sole_width_m + SOLE_CLEARANCE_M))
+    if side < 0:  # mirror the lateral bounds for a right foot
+        lower[1], upper[1] = -upper[1], -lower[1]
+    return lower, upper
 
 
 def plan_footsteps(

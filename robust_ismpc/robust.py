@@ -32,13 +32,19 @@ from .feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_w
 from .governor import interval_unchecked, target_unchecked
 from .mpc import MpcPlan, MpcState
 from .params import MpcParams, RobotParams, check_nonnegative
-from .planner import rotation
+from .planner import kinematic_box, rotation
 from .qp import QpSolver
 from .reference import Measurement
 from .restriction import checked_restriction_rate, max_tolerable_deviation, restriction_profile
 from .step_timing import StaParams, should_adapt, solve_sta
 
 MODULES = ("observer", "restriction", "timing")
+
+
+#: Durations of the coming single support, as fractions of its nominal one, that
+#: :meth:`RobustIsmpcController._retime_next_step` tries in double support (within
+#: :meth:`~robust_ismpc.step_timing.StaParams.ss_limits`).
+DS_RETIMING_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
 
 
 @dataclass(frozen=True)
@@ -220,6 +226,16 @@ class RobustIsmpcController(IsmpcController):
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
 
+    def plan_duration_s(self, run_s: float) -> float:
+        """As the nominal controller's, stretched so that the plan still covers the run when every
+        single support is re-timed to its shortest (re-timing pulls the later steps earlier)."""
+        length = super().plan_duration_s(run_s)
+        if "timing" not in self.modules:
+            return length
+        robot = self.robot
+        shortest_step_s = self.sta_params.ss_limits(robot.T_ss_s)[0] + robot.T_ds_s
+        return length * max(1.0, robot.T_step_s / shortest_step_s)
+
     @property
     def timing_adaptations(self) -> int:
         """Number of cycles in which the step timing was changed."""
@@ -305,9 +321,9 @@ class RobustIsmpcController(IsmpcController):
             step_periods_s=periods, eta=self.eta, sampling_period_s=self.dt,
             control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
         )
-        half_x = np.full(len(idx), 0.5 * robot.kin_box_x_m)
-        lo = np.column_stack([-half_x, sides * robot.foot_spacing_m - 0.5 * robot.kin_box_y_m])
-        hi = np.column_stack([half_x, sides * robot.foot_spacing_m + 0.5 * robot.kin_box_y_m])
+        boxes = {side: kinematic_box(robot, side) for side in (-1, 1)}
+        lo = np.array([boxes[int(side)][0] for side in sides])
+        hi = np.array([boxes[int(side)][1] for side in sides])
         if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
             lo, hi = nominal.copy(), nominal.copy()
         elif frozen:
@@ -415,9 +431,54 @@ class RobustIsmpcController(IsmpcController):
         try:
             return super()._solve_qp(state)
         except InfeasibleMpc:
-            if "timing" in self.modules and self._adapt_timing(state, qp_infeasible=True):
+            if "timing" not in self.modules:
+                raise
+            if self._adapt_timing(state, qp_infeasible=True):
                 return super()._solve_qp(state)
-            raise
+            result = self._retime_next_step(state)
+            if result is None:
+                raise
+            return result
+
+    def _retime_next_step(self, state: MpcState) -> MpcPlan | None:
+        """In double support, when the QP is infeasible: re-time the coming single support to the
+        duration nearest its current one, within the step timing limits, for which the QP is
+        feasible.
+
+        The analytical feasibility bounds (:meth:`_adapt_timing`) hold in single support only, so
+        here the QP itself decides: durations on the :data:`DS_RETIMING_FRACTIONS` grid of the
+        nominal single support are tried nearest first. Returns the plan, or None (timing left
+        as it was) in single support or if no duration is feasible.
+        """
+        plan, t = self.plan, state.t_s
+        j = plan.step_at(t)
+        k = j + 1  # the step whose single support comes next
+        if j < 2 or t < plan.touchdown_s[j] - 1e-9 or k >= plan.n_footsteps:
+            return None
+        nominal = float(self.nominal_T_ss_s[k])
+        lo, hi = self.sta_params.ss_limits(nominal)
+        current = float(plan.T_ss_s[k])
+        durations = {round(f * nominal / self.dt) * self.dt for f in DS_RETIMING_FRACTIONS}
+        durations = sorted((d for d in durations if lo - 1e-9 <= d <= hi + 1e-9 and abs(d - current) > 1e-9),
+                           key=lambda d: abs(d - current))
+        start = float(plan.ss_start_s[k])
+        for duration in durations:
+            plan.retime_touchdown(k, start + duration)
+            try:
+                result = super()._solve_qp(state)
+            except InfeasibleMpc:
+                continue
+            except BaseException:
+                plan.retime_touchdown(k, start + current)
+                raise
+            self.timing.adaptations += 1
+            self.timing.adapted_this_cycle = True
+            self.timing.min_time_to_step_s = min(self.timing.min_time_to_step_s, start + duration - t)
+            self._log.warning("sta", t, f"next single support re-timed in double support: {duration:.2f} s "
+                                        f"(was {current:.2f} s)")
+            return result
+        plan.retime_touchdown(k, start + current)
+        return None
 
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         """Solve, adapting the timing if infeasible; if still infeasible, retry with w̃ moved

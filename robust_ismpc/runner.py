@@ -208,7 +208,7 @@ def run(spec: RunSpec, progress=None, video_path=None, viewer: bool = False) -> 
     robot = robot_params(spec.robot)
     controller = make_controller(robot, spec)
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
-    plan = plan_footsteps(robot, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0, left, -left)
+    plan = plan_footsteps(robot, spec.command, controller.plan_duration_s(spec.duration_s), left, -left)
     controller.reset(plan, np.zeros(2))
     start = time.perf_counter()
     recorder = TraceRecorder(int(spec.duration_s / controller.dt) + 2)

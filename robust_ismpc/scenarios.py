@@ -454,9 +454,9 @@ def _reference_com(robot_spec, spec: RunSpec, t_s: float) -> np.ndarray:
     params = robot_spec.params()
     com0, left0, right0 = initial_state(robot_spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
-    plan = plan_footsteps(params, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
-                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
     controller = make_controller(params, replace(spec, modules=()))
+    plan = plan_footsteps(params, spec.command, controller.plan_duration_s(spec.duration_s),
+                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
     dt = spec.mpc.sampling_period_s
     reference = None

@@ -7,7 +7,7 @@ from fixtures import straight_plan
 
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.params import robot_params
-from robust_ismpc.planner import WalkCommand, kinematic_box, plan_footsteps, rotation
+from robust_ismpc.planner import SOLE_CLEARANCE_M, WalkCommand, kinematic_box, plan_footsteps, rotation
 
 
 @pytest.mark.parametrize("cmd", [(0.3, 0.0, 0.0), (0.0, 0.05, 0.0), (0.1, 0.0, 0.4), (-0.2, 0.0, 0.0)])
@@ -20,6 +20,23 @@ def test_candidates_satisfy_kinematic_and_yaw_limits(cmd):
         lo, hi = kinematic_box(robot, int(plan.side[j]))
         local = rotation(plan.yaw_rad[j - 1]).T @ (plan.candidate_pos_m[j] - plan.candidate_pos_m[j - 1])
         assert np.all(local >= lo - 1e-12) and np.all(local <= hi + 1e-12)
+
+
+@pytest.mark.parametrize("name", ["op3", "nao", "g1"])
+def test_footsteps_never_bring_the_soles_closer_than_their_width(name):
+    """Walking sideways both ways, consecutive candidate soles stay at least a sole width plus
+    SOLE_CLEARANCE_M apart laterally (or ℓ, if that is less), and the kinematic box of a
+    right foot mirrors the left one."""
+    robot = robot_params(name)
+    least = min(robot.foot_spacing_m, robot.sole_width_m + SOLE_CLEARANCE_M)
+    for vy in (0.05, -0.05):
+        plan = straight_plan(robot, 0.0, vy, duration_s=6.0)
+        gaps = np.abs(np.diff(plan.candidate_pos_m[1:, 1]))
+        assert gaps.min() >= least - 1e-12
+    lo_left, hi_left = kinematic_box(robot, 1)
+    lo_right, hi_right = kinematic_box(robot, -1)
+    np.testing.assert_allclose([lo_right[1], hi_right[1]], [-hi_left[1], -lo_left[1]])
+    assert lo_left[1] >= least - 1e-12
 
 
 def test_walking_speed_is_reproduced_when_feasible():

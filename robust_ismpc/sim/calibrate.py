@@ -106,9 +106,9 @@ def fit_swing_cop_gain(
     mpc = MpcParams()
     com0, left0, right0 = initial_state(spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
-    plan = plan_footsteps(params, command, duration_s + mpc.preview_horizon_s + 1.0,
-                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
     controller = IsmpcController(params, mpc)
+    plan = plan_footsteps(params, command, controller.plan_duration_s(duration_s),
+                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
     sim = MujocoSimulation(spec, settings=LoopSettings(control_period_s=mpc.sampling_period_s,
                                                        dynamic_feedforward=True))

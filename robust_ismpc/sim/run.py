@@ -192,11 +192,11 @@ def run_mujoco_spec(
 
     com0, left0, right0 = initial_state(robot_spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
+    controller = make_controller(params, spec, estimator=settings.estimator)
     plan = plan_footsteps(
-        params, spec.command, spec.duration_s + spec.mpc.preview_horizon_s + 1.0,
+        params, spec.command, controller.plan_duration_s(spec.duration_s),
         left0.pos_m[:2], right0.pos_m[:2], yaw0,
     )
-    controller = make_controller(params, spec, estimator=settings.estimator)
     controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
