@@ -23,9 +23,10 @@ import numpy as np
 from .controller import IsmpcController
 from .exceptions import ParameterError
 from .forces import ForceWindow
+from .inputs import gait_params
 from .io import atomic_write_bytes, atomic_write_json
 from .lip_sim import run_lip
-from .params import MpcParams, robot_params
+from .params import MpcParams
 from .planner import WalkCommand, plan_footsteps
 from .qp import DaqpSolver, QpsolversSolver
 from .report import timing_stats
@@ -77,7 +78,7 @@ def machine() -> dict:
 def gait_for_horizon(robot_name: str, control_horizon_s: float):
     """The robot's parameters, with the step shortened (T_ss and T_ds scaled alike) when the
     control horizon is shorter than one step (the controller refuses such a horizon)."""
-    robot = robot_params(robot_name)
+    robot = gait_params(robot_name, "lip")
     if control_horizon_s < robot.T_step_s:
         scale = control_horizon_s / robot.T_step_s
         robot = robot.with_values(T_ss_s=round(robot.T_ss_s * scale, 2), T_ds_s=round(robot.T_ds_s * scale, 2))

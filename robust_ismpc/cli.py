@@ -83,13 +83,11 @@ def _require(args, plot: bool = True) -> None:
 
 
 def _check_sim_flags(args) -> None:
-    from .inputs import check_whole_body_flag
+    from .inputs import check_whole_body_flag, gait_params
 
     check_whole_body_flag(args.whole_body, args.sim)
-    if args.sim == "mujoco":
-        from .sim.run import _check_robot
-
-        _check_robot(args.robot)
+    if args.robot is not None:
+        gait_params(args.robot, args.sim)  # an unknown name or a bad robot file: one line, before any output
     for flag in ("video", "viewer"):
         if getattr(args, flag, False) and args.sim != "mujoco":
             raise ParameterError(f"--{flag} needs --sim mujoco (the LIP has nothing to show)")
@@ -137,7 +135,7 @@ def _one_line(summary: dict, label: str | None = None) -> str:
     state = f"{failed} ({summary['failure']})" if summary["fell"] else (
         "INTERRUPTED" if summary["failure"] == "interrupted" else "walked")
     return (
-        f"{summary['robot']}/{summary['sim']}/{label or summary['controller']}: {state}; "
+        f"{summary.get('robot_name') or summary['robot']}/{summary['sim']}/{label or summary['controller']}: {state}; "
         f"{summary['duration_s']:.2f} s, {summary['distance_m']:.2f} m, {summary['steps_taken']} steps, "
         f"{summary['qp_infeasible_count']} infeasible QPs, cycle median {summary['cycle_ms']['median']} ms"
     )
@@ -471,6 +469,10 @@ def main(argv: list[str] | None = None) -> int:
     handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep, "soak": cmd_soak,
                 "scenarios": cmd_scenarios, "calibrate": cmd_calibrate}
     args.out_dir = None
+    if getattr(args, "robot", None) is not None:
+        from .inputs import robot_reference
+
+        args.robot = robot_reference(args.robot)
     args.interrupts = Interrupts(deferred=args.command in DEFERRED_INTERRUPT_COMMANDS).install()
     logging.captureWarnings(True)  # numerical warnings go to the log (shown with --verbose), not stderr
     try:

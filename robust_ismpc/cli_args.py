@@ -73,12 +73,21 @@ def _seed(text: str) -> int:
     return value
 
 
-def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True) -> None:
+def robot_help(mujoco_only: bool = False) -> str:
+    """Help text of ``--robot``: the built-in robots and the robot-file alternative."""
+    from .inputs import BUILTIN_ROBOTS
     from .params import ROBOT_DEFAULTS
 
+    files = "or the path of a robot file (.toml, docs/robots.md)"
+    if mujoco_only:
+        return f"built-in robot ({', '.join(BUILTIN_ROBOTS)}) {files}; default g1"
+    return (f"built-in robot (lip: {', '.join(sorted(ROBOT_DEFAULTS))}; mujoco: {', '.join(BUILTIN_ROBOTS)}) "
+            f"{files}; default g1")
+
+
+def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True) -> None:
     p.add_argument("--sim", default="lip", help="simulator: lip (reduced model) or mujoco (full robot); default lip")
-    p.add_argument("--robot", default="g1",
-                   help=f"robot: {', '.join(sorted(ROBOT_DEFAULTS))} (mujoco: g1, op3); default g1")
+    p.add_argument("--robot", default="g1", help=robot_help())
     if with_controller:
         p.add_argument("--controller", default="nominal",
                        help="nominal (IS-MPC) or robust (observer + restriction + timing); default nominal")
@@ -149,7 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
                             description="Walk for a long time with the robust controller under random 0.1 s "
                             "pushes (seeded) and report falls, solver failures and memory (OUT/soak.json).")
     p_soak.add_argument("--sim", default="lip", help="lip or mujoco (default lip)")
-    p_soak.add_argument("--robot", default="g1", help="robot (g1)")
+    p_soak.add_argument("--robot", default="g1", help=robot_help())
     p_soak.add_argument("--minutes", type=_positive_float("minutes", MAX_SIM_DURATION_S / 60, "minutes"), default=10.0,
                         help=f"simulated minutes (10; at most {MAX_SIM_DURATION_S / 60:g})")
     p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
@@ -170,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Walk the robot's reference without physics (whole-body IK and the inverse dynamics of its "
         "motion) and fit κ, the forward shift of the centre of pressure per m/s² of forward swing-foot "
         "acceleration (docs/robots.md). Writes OUT/calibration.json and OUT/calibration.png.")
-    p_cal.add_argument("--robot", default="g1", help="built-in robot (g1, op3) or a robot TOML file (g1)")
+    p_cal.add_argument("--robot", default="g1", help=robot_help(mujoco_only=True))
     p_cal.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
     p_cal.add_argument("--duration", type=_duration(), default=8.0, help="walk length [s] (8)")
     p_cal.add_argument("--out", required=True, help="output directory")
@@ -178,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
                              description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
-    p_bench.add_argument("--robot", default="g1", help="robot parameters (g1)")
+    p_bench.add_argument("--robot", default="g1", help=robot_help())
     p_bench.add_argument("--horizons", default="50,100,200", help="control-horizon samples, comma-separated")
     p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
     p_bench.add_argument("--solvers", default=None,
@@ -199,7 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--impulse-max 10 --force-max 100 --iterations 6 --out sweeps/g1-left",
     )
     p_sweep.add_argument("--sim", default="lip", help="simulator: lip or mujoco (default lip)")
-    p_sweep.add_argument("--robot", default="g1", help="robot (g1)")
+    p_sweep.add_argument("--robot", default="g1", help=robot_help())
     p_sweep.add_argument("--controllers", default="nominal,robust",
                          help="comma-separated: nominal, robust, observer, restriction, timing, or modules joined "
                          "by '+' (default nominal,robust)")

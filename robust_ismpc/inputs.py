@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 from collections.abc import Sequence
+from pathlib import Path
 
 from .exceptions import ParameterError
 from .planner import kinematic_box
@@ -44,11 +45,40 @@ def require_extra(extra: str, purpose: str) -> None:
             )
 
 
+#: Built-in robots: one robot file each in ``robust_ismpc/robots`` (adding a file adds a robot).
+BUILTIN_ROBOTS: tuple[str, ...] = tuple(sorted(p.stem for p in (Path(__file__).parent / "robots").glob("*.toml")))
+
+
+def is_robot_file(robot: str) -> bool:
+    """True if ``robot`` is the path of a robot file (``.toml``), False for a built-in name."""
+    return str(robot).endswith(".toml")
+
+
+def robot_reference(robot: str) -> str:
+    """``robot`` as runs keep it: a built-in name as given, a robot file as its absolute path (so
+    that sweep workers and reruns from another folder find it)."""
+    if is_robot_file(robot):
+        return str(Path(robot).expanduser().resolve())
+    return str(robot)
+
+
 def gait_params(robot: str, sim: str):
-    """The gait parameters a run of ``robot`` on ``sim`` uses (MuJoCo: the robot TOML's)."""
+    """The gait parameters (:class:`~robust_ismpc.params.RobotParams`) that a run of ``robot`` on
+    ``sim`` uses: a robot file's (measured from its model, on either simulator), a built-in
+    robot's file on MuJoCo, its reduced model on the LIP.
+
+    Raises
+    ------
+    ParameterError
+        Unknown name (the message lists the robots), an invalid robot file, or a file without
+        the ``sim`` extra (mujoco measures its model).
+    ModelError
+        The file's model is missing or does not match the file.
+    """
     from .params import robot_params
 
-    if sim == "mujoco":
+    if sim == "mujoco" or is_robot_file(robot):
+        require_extra("sim", f"robot {robot}" if is_robot_file(robot) else "--sim mujoco")
         from .robots import load_robot
 
         return load_robot(robot).params()

@@ -271,7 +271,8 @@ def robot_params(name: str) -> RobotParams:
         return ROBOT_DEFAULTS[name]
     except KeyError:
         raise ParameterError(
-            f"unknown robot {name!r}; built-in robots are: {', '.join(sorted(ROBOT_DEFAULTS))}"
+            f"unknown robot {name!r}; built-in robots are: {', '.join(sorted(ROBOT_DEFAULTS))} "
+            "(or the path of a robot file, .toml)"
         ) from None
 
 

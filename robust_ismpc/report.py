@@ -55,6 +55,7 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
     violation = trace["zmp_violation_m"]
     summary = {
         "robot": meta.get("robot"),
+        "robot_name": meta.get("robot_name", meta.get("robot")),
         "sim": meta.get("sim"),
         "whole_body": meta.get("whole_body", "servo") if meta.get("sim") == "mujoco" else None,
         "controller": meta.get("controller"),

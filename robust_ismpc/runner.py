@@ -14,8 +14,9 @@ import numpy as np
 from .controller import IsmpcController
 from .exceptions import ParameterError
 from .forces import ForceWindow
+from .inputs import gait_params, robot_reference
 from .lip_sim import INTERRUPTED, RunOutcome, run_lip
-from .params import MpcParams, RobotParams, robot_params
+from .params import MpcParams, RobotParams
 from .planner import WalkCommand, plan_footsteps
 from .report import summarize
 from .trace import Trace, TraceRecorder
@@ -74,7 +75,8 @@ class RunSpec:
     Attributes
     ----------
     robot : str
-        Built-in robot name.
+        Built-in robot name, or the path of a robot file (``.toml``, docs/robots.md; kept as an
+        absolute path). On the LIP a file's reduced model is measured from its MuJoCo model.
     sim : str
         ``lip`` or ``mujoco``.
     modules : tuple of str
@@ -112,7 +114,10 @@ class RunSpec:
         if self.sim not in SIMS:
             raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
         object.__setattr__(self, "whole_body", resolve_whole_body("RunSpec", self.whole_body, self.sim))
-        robot_params(self.robot)  # validates the name
+        if not isinstance(self.robot, str) or not self.robot:
+            raise ParameterError(f"robot must be a built-in robot name or a robot file path, got {self.robot!r}")
+        object.__setattr__(self, "robot", robot_reference(self.robot))
+        gait_params(self.robot, self.sim)  # validates the name or the file
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
         for m in self.modules:
@@ -162,6 +167,7 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
     """Metadata stored with a trace."""
     return {
         "robot": spec.robot,
+        "robot_name": robot.name,
         "sim": spec.sim,
         "controller": spec.controller_label,
         "modules": list(spec.modules),
@@ -205,7 +211,7 @@ def run(spec: RunSpec, progress=None, video_path=None, viewer: bool = False) -> 
         return run_mujoco_spec(spec, progress=progress, video_path=video_path, viewer=viewer)
     if video_path is not None or viewer:
         raise ParameterError("--video and --viewer need --sim mujoco (the LIP has nothing to show)")
-    robot = robot_params(spec.robot)
+    robot = gait_params(spec.robot, "lip")
     controller = make_controller(robot, spec)
     left = np.array([0.0, 0.5 * robot.foot_spacing_m])
     plan = plan_footsteps(robot, spec.command, controller.plan_duration_s(spec.duration_s), left, -left)

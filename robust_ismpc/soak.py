@@ -16,7 +16,7 @@ import numpy as np
 
 from .exceptions import ParameterError
 from .forces import ForceWindow
-from .params import robot_params
+from .inputs import gait_params
 from .planner import WalkCommand
 from .runner import MODULES, RunSpec, run
 
@@ -67,8 +67,8 @@ class SoakSpec:
     whole_body: str | None = None
 
     def __post_init__(self) -> None:
-        robot_params(self.robot)
         run = RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body)  # validates both
+        object.__setattr__(self, "robot", run.robot)
         object.__setattr__(self, "whole_body", run.whole_body)
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"soak duration must be > 0 s, got {self.duration_s!r}")
@@ -85,7 +85,7 @@ class SoakSpec:
 
 def random_pushes(spec: SoakSpec, rng: np.random.Generator) -> tuple[ForceWindow, ...]:
     """0.1 s pushes of random direction and magnitude, at random intervals, after 5 s of walking."""
-    mass = robot_params(spec.robot).mass_kg
+    mass = gait_params(spec.robot, "lip").mass_kg
     push_max = spec.push_max_n if spec.push_max_n is not None else 8.0 * mass / 33.3
     pushes = []
     t = 5.0 + rng.uniform(*spec.push_interval_s)

@@ -261,11 +261,12 @@ class SweepConfig:
 
     def __post_init__(self) -> None:
         owner = "SweepConfig"
-        from .params import robot_params
+        from .inputs import gait_params, robot_reference
 
-        robot_params(self.robot)  # validates the name
         if self.sim not in SIMS:
             raise ParameterError(f"unknown simulator {self.sim!r}; use one of: {', '.join(SIMS)}")
+        object.__setattr__(self, "robot", robot_reference(self.robot))
+        gait_params(self.robot, self.sim)  # validates the name or the file
         if not self.controllers:
             raise ParameterError(f"{owner}.controllers must name at least one controller")
         parse_controllers(",".join(self.controllers))
@@ -338,13 +339,9 @@ class SweepConfig:
     # -----------------------------------------------------------------------------------------
     def gait_params(self):
         """Gait timing of the robot as the simulator uses it (:class:`~robust_ismpc.params.RobotParams`)."""
-        if self.sim == "mujoco":
-            from .robots import load_robot
+        from .inputs import gait_params
 
-            return load_robot(self.robot).params()
-        from .params import robot_params
-
-        return robot_params(self.robot)
+        return gait_params(self.robot, self.sim)
 
     def pushed_step_window(self) -> tuple[float, float]:
         """Start and duration of the pushed step's single support [s].

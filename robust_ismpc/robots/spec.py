@@ -23,12 +23,12 @@ import numpy as np
 import tomllib
 
 from ..exceptions import ModelError, ParameterError
-from ..params import ROBOT_DEFAULTS, RobotParams, check_positive
+from ..inputs import BUILTIN_ROBOTS
+from ..params import RobotParams, check_positive
 
 logger = logging.getLogger("robust_ismpc")
 
 _BUILTIN_DIR = Path(__file__).resolve().parent
-BUILTIN_ROBOTS: tuple[str, ...] = ("g1", "op3")
 
 #: RobotParams fields that are measured from the model and may not be overridden in ``[gait]``.
 MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_length_m", "sole_width_m")
@@ -94,6 +94,11 @@ class RobotSpec:
         Vertices (x, y) of the region where the sole can bear load, in the sole frame [m]
         (convex, e.g. the contact spheres' centres); empty means the ``sole_length_m`` x
         ``sole_width_m`` rectangle. The measured support polygon is built from it.
+    foot_friction : float or None
+        Sliding friction of the foot contact geoms in the simulation (None: the model's).
+    servo_dynamic_feedforward : bool
+        Servo playback only: add the inverse dynamics of the IK motion to the servos' torque
+        feedforward (:class:`~robust_ismpc.sim.mujoco_loop.LoopSettings`).
     """
 
     name: str
@@ -115,9 +120,16 @@ class RobotSpec:
     base_height_m: float
     gait_overrides: tuple[tuple[str, float], ...] = field(default=())
     sole_outline_m: tuple[tuple[float, float], ...] = field(default=())
+    foot_friction: float | None = None
+    servo_dynamic_feedforward: bool = False
 
     def __post_init__(self) -> None:
         owner = f"RobotSpec[{self.name}]"
+        if self.foot_friction is not None:
+            check_positive(owner, foot_friction=self.foot_friction)
+        if not isinstance(self.servo_dynamic_feedforward, bool):
+            raise ParameterError(f"{owner}.servo_dynamic_feedforward must be true or false, "
+                                 f"got {self.servo_dynamic_feedforward!r}")
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"RobotSpec.name must be a non-empty string, got {self.name!r}")
         if not isinstance(self.model_path, Path):
@@ -210,17 +222,12 @@ class RobotSpec:
     def params(self) -> RobotParams:
         """Reduced-model parameters of this robot.
 
-        The gait values (ZMP and kinematic boxes, timing, swing height, yaw step) come from
-        :data:`robust_ismpc.params.ROBOT_DEFAULTS` for a built-in name, otherwise from defaults
-        scaled on the measured geometry; ``gait_overrides`` replace either. Mass, CoM height, sole
-        size and foot spacing are the measured values. The ZMP box is shrunk to fit in the sole
-        if needed.
+        The gait values (ZMP and kinematic boxes, timing, swing height, yaw step) are defaults
+        scaled on the measured geometry, replaced by ``gait_overrides`` (the file's ``[gait]``),
+        for built-in and user robots alike. Mass, CoM height, sole size and foot spacing are the
+        measured values. The ZMP box is shrunk to fit in the sole if needed.
         """
-        base = ROBOT_DEFAULTS.get(self.name)
-        if base is not None:
-            values = {f.name: getattr(base, f.name) for f in fields(RobotParams)}
-        else:
-            values = _scaled_gait_defaults(self)
+        values = _scaled_gait_defaults(self)
         values.update(dict(self.gait_overrides))
         values.update(
             name=self.name,
@@ -329,7 +336,9 @@ _REQUIRED_KEYS = (
     "sole_width_m",
     "leg_joints",
 )
-_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m")
+_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m", "simulation")
+#: Keys of the ``[simulation]`` table and their types.
+_SIMULATION_KEYS = {"foot_friction": float, "servo_dynamic_feedforward": bool}
 
 
 def _toml_number(toml_path: Path, key: str, value: Any) -> float:
@@ -404,6 +413,24 @@ def _measure(
     )
 
 
+def _simulation_table(toml_path: Path, table: Any) -> dict[str, Any]:
+    """The ``[simulation]`` table of a robot file, checked (ParameterError naming file and key)."""
+    if not isinstance(table, dict):
+        raise ParameterError(f"{toml_path}: simulation must be a table of {', '.join(_SIMULATION_KEYS)}")
+    values = {}
+    for key, value in table.items():
+        kind = _SIMULATION_KEYS.get(key)
+        if kind is None:
+            raise ParameterError(f"{toml_path}: unknown key simulation.{key}; allowed: {', '.join(_SIMULATION_KEYS)}")
+        if kind is bool:
+            if not isinstance(value, bool):
+                raise ParameterError(f"{toml_path}: simulation.{key} must be true or false, got {value!r}")
+            values[key] = value
+        else:
+            values[key] = _toml_number(toml_path, f"simulation.{key}", value)
+    return values
+
+
 def load_robot_toml(path: str | Path) -> RobotSpec:
     """Read a robot description file and measure its model.
 
@@ -470,6 +497,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     except (TypeError, ValueError):
         raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
     sole_size = {key: _toml_number(toml_path, key, table[key]) for key in ("sole_length_m", "sole_width_m")}
+    simulation = _simulation_table(toml_path, table.get("simulation", {}))
 
     owner = f"{toml_path}: "
     offsets = (
@@ -499,6 +527,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
         standing_posture=posture,
         gait_overrides=gait_overrides,
         sole_outline_m=sole_outline,
+        **simulation,
         **measured,
     )
     logger.info(
@@ -535,8 +564,8 @@ def load_robot(name_or_toml_path: str | Path) -> RobotSpec:
         path = Path(name_or_toml_path)
         if path.suffix != ".toml":
             raise ParameterError(
-                f"unknown robot {str(name_or_toml_path)!r}; built-in robots are: {', '.join(BUILTIN_ROBOTS)} "
-                "(or give the path of a .toml robot description)"
+                f"unknown robot {str(name_or_toml_path)!r} for MuJoCo; robots available with --sim mujoco: "
+                f"{', '.join(BUILTIN_ROBOTS)}, or the path of a robot file (.toml, docs/robots.md)"
             )
         if not path.is_file():
             raise ModelError(f"robot description file {str(path)!r} not found")

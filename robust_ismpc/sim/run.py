@@ -17,9 +17,10 @@ simulators alike. On the full robot the channels mean:
 - ``left_foot_m``, ``right_foot_m``: reference soles from the controller (as on the LIP);
 - ``disturbance_true_mps2``: the applied external force divided by the simulated mass.
 
-The per-robot closed-loop settings that are not reduced-model parameters (state feedback gain,
-IK weights, torso pitch, contact threshold) are :data:`WALK_SETTINGS`; the gait timing, ZMP box
-and swing height are the ``[gait]`` table of the robot TOML files (``docs/robots.md``).
+Everything that differs between robots comes from the robot file (``docs/robots.md``): the gait
+timing, boxes and swing height from its ``[gait]`` table, the foot friction and the servo
+feedforward from its ``[simulation]`` table. :class:`WalkSettings` holds the settings shared by
+every robot (estimator noise, IK weights, fall criteria, inverse-dynamics gains).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..lip_sim import INTERRUPTED
 from ..planner import plan_footsteps
 from ..report import summarize
-from ..robots.spec import BUILTIN_ROBOTS, load_robot
+from ..robots.spec import load_robot
 from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings
@@ -55,22 +56,23 @@ COP_TOLERANCE_M = 1e-3
 
 
 
+#: Measurement noise of the state estimator on a simulated robot: σ_p = 5 mm, σ_v = 5 cm/s,
+#: σ_a = 0.5 m/s² (docs/closed-loop.md).
+ROBOT_ESTIMATOR = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5)
+
+
 @dataclass(frozen=True)
 class WalkSettings:
-    """Closed-loop settings of one robot walking in MuJoCo.
+    """Closed-loop settings of a robot walking in MuJoCo, the same for every robot.
 
     Both controllers' MPC starts every cycle from the state estimator's CoM and CoM velocity
     (:mod:`robust_ismpc.estimator`), and every landed footstep is moved to the measured sole.
+    What differs between robots is in the robot file (:class:`~robust_ismpc.robots.RobotSpec`).
 
     Attributes
     ----------
     estimator : EstimatorParams
-        Noise model of the state estimator (default: the measured CoM and velocity as they are).
-    foot_friction : float or None
-        Simulation setting: sliding friction of the foot contact geoms (None: the model's).
-    dynamic_feedforward : bool
-        Servo playback only: inverse-dynamics and servo-damping feedforward of the IK reference
-        motion (:class:`~robust_ismpc.sim.mujoco_loop.LoopSettings`).
+        Noise model of the state estimator (default :data:`ROBOT_ESTIMATOR`).
     disturbance_feedforward : bool
         Servo playback only: servo torque feedforward of the planned disturbance force ``m ŵ``
         (:attr:`~robust_ismpc.sim.mujoco_loop.LoopSettings.disturbance_feedforward`).
@@ -82,9 +84,7 @@ class WalkSettings:
         Gains of the inverse-dynamics QP (``RunSpec.whole_body = "torque"``, the default).
     """
 
-    estimator: EstimatorParams = field(default_factory=EstimatorParams)
-    foot_friction: float | None = None
-    dynamic_feedforward: bool = False
+    estimator: EstimatorParams = ROBOT_ESTIMATOR
     disturbance_feedforward: bool = True
     ik: IkSettings = field(default_factory=IkSettings)
     fall: FallCriteria = field(default_factory=FallCriteria)
@@ -93,19 +93,6 @@ class WalkSettings:
     def __post_init__(self) -> None:
         if not isinstance(self.estimator, EstimatorParams):
             raise ParameterError(f"WalkSettings.estimator must be EstimatorParams, got {type(self.estimator).__name__}")
-
-
-#: Measurement noise of the robots' state estimator: σ_p = 5 mm, σ_v = 5 cm/s, σ_a = 0.5 m/s²
-#: (docs/closed-loop.md). G1's feet get friction 1.0 instead of the model's 0.6: in single support
-#: its stance foot often rests on one or two of its four contact spheres, and at 0.6 it slid
-#: (20 mm/s on average) and turned (the robot yawed by 2.4 rad in 8 s walking forward); at 1.0 the
-#: yaw stays within 0.1 rad.
-ROBOT_ESTIMATOR = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5)
-
-WALK_SETTINGS: dict[str, WalkSettings] = {
-    "g1": WalkSettings(foot_friction=1.0, dynamic_feedforward=True, estimator=ROBOT_ESTIMATOR),
-    "op3": WalkSettings(estimator=ROBOT_ESTIMATOR),
-}
 
 
 @dataclass(frozen=True)
@@ -132,18 +119,6 @@ class TickTimes:
         }
 
 
-def walk_settings(robot: str) -> WalkSettings:
-    """Closed-loop settings of a built-in robot (defaults for others)."""
-    return WALK_SETTINGS.get(robot, WalkSettings())
-
-
-def _check_robot(name: str) -> None:
-    if name not in BUILTIN_ROBOTS:
-        raise ParameterError(
-            f"robot {name!r} has no MuJoCo model; robots available with --sim mujoco: {', '.join(BUILTIN_ROBOTS)}"
-        )
-
-
 def run_mujoco_spec(
     spec: RunSpec,
     progress=None,
@@ -163,7 +138,7 @@ def run_mujoco_spec(
     video_path : path, optional
         Write an mp4 of the run there (offscreen rendering, see :mod:`robust_ismpc.sim.video`).
     settings : WalkSettings, optional
-        Closed-loop settings (default: :data:`WALK_SETTINGS` of the robot).
+        Closed-loop settings shared by every robot (default ``WalkSettings()``).
     scene_items : sequence of Payload or SwingingBall, optional
         Objects added to the scene (:mod:`robust_ismpc.sim.disturbances`); their holding forces
         are added to the disturbances and ``summary["scene"]`` reports what they did
@@ -182,10 +157,11 @@ def run_mujoco_spec(
     Raises
     ------
     ParameterError
-        The robot has no MuJoCo model.
+        ``spec.robot`` is neither a robot with a MuJoCo model nor a robot file, or the file is invalid.
+    ModelError
+        The robot file's model is missing or does not match the file.
     """
-    _check_robot(spec.robot)
-    settings = settings if settings is not None else walk_settings(spec.robot)
+    settings = settings if settings is not None else WalkSettings()
     robot_spec = load_robot(spec.robot)
     params = robot_spec.params()
     dt = spec.mpc.sampling_period_s
@@ -201,8 +177,8 @@ def run_mujoco_spec(
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
     loop = LoopSettings(
-        control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=settings.foot_friction,
-        dynamic_feedforward=settings.dynamic_feedforward,
+        control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=robot_spec.foot_friction,
+        dynamic_feedforward=robot_spec.servo_dynamic_feedforward,
         disturbance_feedforward=settings.disturbance_feedforward,
         torque_control=settings.torque_control if spec.whole_body == "torque" else None,
     )
@@ -306,4 +282,4 @@ def run_mujoco_spec(
     return RunResult(summary=summary, trace=trace)
 
 
-__all__ = ["COP_TOLERANCE_M", "TickTimes", "WALK_SETTINGS", "WalkSettings", "run_mujoco_spec", "walk_settings"]
+__all__ = ["COP_TOLERANCE_M", "ROBOT_ESTIMATOR", "TickTimes", "WalkSettings", "run_mujoco_spec"]

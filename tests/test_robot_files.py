@@ -1,0 +1,85 @@
+"""A robot file path works wherever a robot name does, and a built-in robot is its file alone."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from robust_ismpc.cli import main
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+from robust_ismpc.robots import BUILTIN_ROBOTS, load_robot  # noqa: E402
+
+BUILTIN_DIR = Path(__file__).resolve().parents[1] / "robust_ismpc" / "robots"
+
+
+@pytest.fixture(scope="module")
+def op3_copy(tmp_path_factory) -> Path:
+    """OP3's built-in robot file copied to a user folder under another name ("mybot")."""
+    text = (BUILTIN_DIR / "op3.toml").read_text().replace('name = "op3"', 'name = "mybot"')
+    path = tmp_path_factory.mktemp("robots") / "mybot.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_builtin_robot_is_its_file(op3_copy):
+    """A copy of a built-in robot file, under another name, gives the same reduced model and
+    simulation settings: nothing about a built-in robot is kept outside its file."""
+    for name in BUILTIN_ROBOTS:
+        text = (BUILTIN_DIR / f"{name}.toml").read_text().replace(f'name = "{name}"', 'name = "renamed"')
+        copy = op3_copy.parent / f"{name}_copy.toml"
+        copy.write_text(text)
+        builtin, user = load_robot(name), load_robot(str(copy))
+        assert user.params() == builtin.params().with_values(name="renamed")
+        assert (user.foot_friction, user.servo_dynamic_feedforward) == (
+            builtin.foot_friction, builtin.servo_dynamic_feedforward)
+
+
+def _main(argv, capsys):
+    code = main(argv)
+    return code, capsys.readouterr()
+
+
+def test_run_takes_a_robot_file_on_both_simulators(op3_copy, tmp_path, capsys):
+    """``ismpc run --robot FILE`` walks on the LIP and in MuJoCo; summary.json keeps the file's
+    absolute path (to rerun it) and the robot's name."""
+    for sim in ("lip", "mujoco"):
+        out = tmp_path / sim
+        code, captured = _main(["run", "--sim", sim, "--robot", str(op3_copy), "--vx", "0.1", "--duration", "2",
+                                "--out", str(out)], capsys)
+        assert code == 0, captured.err
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["robot"] == str(op3_copy.resolve())
+        assert summary["robot_name"] == "mybot"
+        assert not summary["fell"]
+        assert captured.out.startswith(f"mybot/{sim}/nominal")
+
+
+@pytest.mark.parametrize("argv,written", [
+    (["compare", "--duration", "2"], "comparison.json"),
+    (["sweep", "--direction", "0", "--phase", "0.5", "--iterations", "1", "--impulse-max", "1"], "frontier.json"),
+    (["soak", "--minutes", "0.1"], "soak.json"),
+    (["calibrate", "--vx", "0.1", "--duration", "3"], "calibration.json"),
+    (["bench", "--horizons", "50", "--cycles", "20"], "bench.json"),
+])
+def test_every_command_takes_a_robot_file(op3_copy, tmp_path, capsys, argv, written):
+    """compare, sweep, soak, calibrate and bench accept a robot file path for --robot."""
+    out = tmp_path / "out"
+    code, captured = _main(argv + ["--robot", str(op3_copy), "--out", str(out)], capsys)
+    assert code == 0, captured.err
+    assert (out / written).is_file()
+    recorded = [p for p in out.rglob("*.json") if str(op3_copy.resolve()) in p.read_text()]
+    assert recorded, "no output names the robot file"
+
+
+@pytest.mark.parametrize("robot,message", [
+    ("missing.toml", "robot description file"),
+    ("hrp4", "robots available with --sim mujoco"),
+])
+def test_a_bad_robot_exits_2_with_one_line(tmp_path, capsys, robot, message):
+    """An unknown name on MuJoCo or a missing file: exit 2, one line naming it."""
+    code, captured = _main(["run", "--sim", "mujoco", "--robot", robot, "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    assert message in captured.err and len(captured.err.strip().splitlines()) == 1
