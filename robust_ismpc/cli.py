@@ -1,7 +1,8 @@
 """``ismpc`` command line: the only module that parses arguments or prints.
 
 Exit status: 0 success (also when the robot fell: the outcome is in ``summary.json``),
-2 bad input (one line on stderr), 1 an unexpected internal error, 130 interrupted.
+2 bad input (one line on stderr), 1 an unexpected internal error, 3 ``ismpc robot check`` ran
+and the robot failed it, 130 interrupted.
 """
 
 from __future__ import annotations
@@ -112,6 +113,12 @@ def _spec(args, modules: tuple[str, ...]):
     check_forces_in_run(forces, args.duration)
     requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}
     applied, warnings = limit_command(args.robot, gait_params(args.robot, args.sim), requested)
+    if spec.sim == "mujoco" and spec.whole_body == "servo":
+        from .robots import load_robot
+        from .sim.mujoco_loop import soft_servo_warning
+
+        soft = soft_servo_warning(load_robot(spec.robot))
+        warnings = warnings + ([soft] if soft else [])
     args.command_requested = {"vx_mps": args.vx, "vy_mps": args.vy, "omega_radps": args.omega}
     args.warnings = warnings
     return replace(spec, command=WalkCommand(applied["--vx"], applied["--vy"], applied["--omega"]))
@@ -457,6 +464,88 @@ def cmd_sweep(args) -> int:
 DEFERRED_INTERRUPT_COMMANDS = ("run", "compare", "soak")
 
 
+def cmd_robot(args) -> int:
+    """``ismpc robot init|check``."""
+    from .inputs import require_extra
+
+    if args.robot_command is None:
+        raise ParameterError("ismpc robot needs a subcommand: init MODEL.xml --out FILE, or check FILE --out DIR")
+    require_extra("sim", f"ismpc robot {args.robot_command}")
+    if args.robot_command == "init":
+        return _robot_init(args)
+    return _robot_check(args)
+
+
+def _robot_init(args) -> int:
+    from .io import atomic_write_bytes
+    from .robots.wizard import draft_robot, robot_file_text
+
+    out = Path(args.out).expanduser()
+    if out.suffix != ".toml":
+        raise ParameterError(f"--out {args.out!r}: a robot file ends in .toml")
+    if out.exists() and not args.overwrite:
+        raise ParameterError(f"--out {args.out!r} exists; use --overwrite to replace it")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    draft = draft_robot(args.model, args.left_foot, args.right_foot, args.name)
+    atomic_write_bytes(out, robot_file_text(draft, out).encode())
+    print(f"{draft.name}: feet {draft.left_foot} / {draft.right_foot}, sole {100 * draft.sole_length_m:.1f} x "
+          f"{100 * draft.sole_width_m:.1f} cm, {len(draft.leg_joints)} leg joints, standing CoM "
+          f"{draft.com_height_m:.3f} m, feet {draft.foot_spacing_m:.3f} m apart")
+    for note in draft.notes:
+        _warn(note)
+    if not args.no_calibrate:
+        gain = _calibrate_draft(out)
+        if gain is not None:
+            atomic_write_bytes(out, robot_file_text(draft, out, swing_cop_gain_s2=gain).encode())
+    print(f"wrote {out}; check it with: ismpc robot check {out} --out DIR")
+    return 0
+
+
+def _calibrate_draft(path: Path) -> float | None:
+    """The swing-leg CoP gain of a drafted robot file, or None (with a warning) when the fit
+    explains less than a third of the CoP deviation or fails."""
+    from .exceptions import IsmpcError
+    from .inputs import command_limits
+    from .planner import WalkCommand
+    from .robots import load_robot
+    from .sim.calibrate import fit_swing_cop_gain
+
+    try:
+        spec = load_robot(str(path))
+        vx = 0.5 * command_limits(spec.params())["--vx"][0]
+        fit = fit_swing_cop_gain(spec, WalkCommand(vx))
+    except IsmpcError as exc:
+        _warn(f"swing-leg CoP gain not calibrated: {exc}")
+        return None
+    explained = 1.0 - fit.rms_after_m / fit.rms_before_m if fit.rms_before_m > 0 else 0.0
+    if explained < 1.0 / 3.0:
+        _warn(f"swing-leg CoP gain not written: κ = {fit.gain_s2:.4f} s² explains only {explained:.0%} of the "
+              f"forward CoP deviation ({100 * fit.rms_before_m:.2f} cm rms)")
+        return None
+    print(f"swing-leg CoP gain κ = {fit.gain_s2:.4f} s² (explains {explained:.0%} of the forward CoP deviation)")
+    return fit.gain_s2
+
+
+def _robot_check(args) -> int:
+    from .inputs import robot_reference
+    from .io import atomic_write_json
+    from .sim.check import check_robot
+
+    robot = robot_reference(args.file)
+    out = _open_out(args)
+    report, result = check_robot(robot, vx_mps=args.vx)
+    atomic_write_json(out / "check.json", report)
+    _write_run(result, out, title=f"{report['robot_name']}: walk of `ismpc robot check`")
+    stand, walk = report["stand"], report["walk"]
+    held = "held" if stand["stood"] else f"FELL at {stand['fell_at_s']:.2f} s"
+    print(f"{report['robot_name']}: stand {held} "
+          f"(CoM drift {100 * stand['com_drift_m']:.1f} cm); walk at {walk['vx_mps']} m/s "
+          f"{'FELL: ' + str(walk['failure']) if walk['fell'] else 'walked'} ({walk['distance_m']:.2f} m, "
+          f"{walk['steps_taken']} steps, {walk['qp_infeasible_count']} infeasible QPs)")
+    print(f"{'passed' if report['passed'] else 'FAILED'}; wrote {out / 'check.json'}, {out / 'gait.png'}")
+    return 0 if report["passed"] else 3
+
+
 def main(argv: list[str] | None = None) -> int:
     from .outputs import Interrupts
 
@@ -467,7 +556,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     handlers = {"run": cmd_run, "compare": cmd_compare, "bench": cmd_bench, "sweep": cmd_sweep, "soak": cmd_soak,
-                "scenarios": cmd_scenarios, "calibrate": cmd_calibrate}
+                "scenarios": cmd_scenarios, "calibrate": cmd_calibrate, "robot": cmd_robot}
     args.out_dir = None
     if getattr(args, "robot", None) is not None:
         from .inputs import robot_reference

@@ -81,7 +81,8 @@ def robot_help(mujoco_only: bool = False) -> str:
     files = "or the path of a robot file (.toml, docs/robots.md)"
     if mujoco_only:
         return f"built-in robot ({', '.join(BUILTIN_ROBOTS)}) {files}; default g1"
-    return (f"built-in robot (lip: {', '.join(sorted(ROBOT_DEFAULTS))}; mujoco: {', '.join(BUILTIN_ROBOTS)}) "
+    lip = sorted(set(ROBOT_DEFAULTS) | set(BUILTIN_ROBOTS))
+    return (f"built-in robot (lip: {', '.join(lip)}; mujoco: {', '.join(BUILTIN_ROBOTS)}) "
             f"{files}; default g1")
 
 
@@ -242,6 +243,32 @@ def build_parser() -> argparse.ArgumentParser:
                          help="discard an earlier sweep in --out (without it, the same sweep resumes and a "
                          "different one is refused)")
     p_sweep.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+    p_robot = sub.add_parser("robot", help="add a robot: draft its robot file from a model, check a robot file",
+                             description="`ismpc robot init MODEL.xml --out robots/mybot.toml` drafts a robot file; "
+                             "`ismpc robot check robots/mybot.toml --out DIR` stands and walks it in MuJoCo "
+                             "(docs/robots.md).")
+    robot_sub = p_robot.add_subparsers(dest="robot_command", parser_class=_Parser)
+    p_init = robot_sub.add_parser(
+        "init", help="draft a robot file from an MJCF scene (robot and floor)",
+        description="Find the floating base, the feet, the soles, the leg joints and a bent-knee standing posture "
+        "(whole-body IK) in MODEL, measure the swing-leg CoP gain, and write a commented robot file.")
+    p_init.add_argument("model", help="MJCF scene: the robot with a floor")
+    p_init.add_argument("--out", required=True, help="robot file to write (.toml)")
+    p_init.add_argument("--name", default=None, help="robot name (default: the model's folder name)")
+    p_init.add_argument("--left-foot", default=None, help="left foot body (default: found)")
+    p_init.add_argument("--right-foot", default=None, help="right foot body (default: found)")
+    p_init.add_argument("--no-calibrate", action="store_true", help="skip the swing-leg CoP gain calibration")
+    p_init.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    p_check = robot_sub.add_parser(
+        "check", help="stand a robot 5 s and walk it 5 s in MuJoCo; report and picture",
+        description="Hold the robot still in double support for 5 s (torque control), then walk it forward "
+        "with the nominal controller for 5 s. Writes OUT/check.json, OUT/gait.png and OUT/summary.json.")
+    p_check.add_argument("file", help="robot file (.toml) or built-in robot name")
+    p_check.add_argument("--vx", type=_finite_float("vx"), default=None,
+                         help="walking speed [m/s] (default: half of what the robot's steps allow)")
+    p_check.add_argument("--out", required=True, help="output directory")
+    p_check.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     return parser
 
 

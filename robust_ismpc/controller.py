@@ -24,7 +24,7 @@ from .exceptions import ControllerFailure, InfeasibleMpc, ParameterError, Solver
 from .footsteps import LEFT, FootstepPlan
 from .lip import discretise
 from .mpc import IsmpcQp, MpcPlan, MpcState
-from .params import MpcParams, RobotParams
+from .params import MpcParams, RobotParams, mpc_params_for
 from .qp import QpSolver
 from .reference import FootReference, GaitReference, Measurement, Support
 from .swing import SwingState, advance_swing
@@ -104,7 +104,7 @@ class IsmpcController:
     robot : RobotParams
         Robot and gait parameters.
     mpc : MpcParams, optional
-        MPC settings (defaults).
+        MPC settings (default :func:`~robust_ismpc.params.mpc_params_for` the robot).
     solver : QpSolver, optional
         QP solver (defaults to ``mpc.solver``).
     replan_on_landing : bool
@@ -129,13 +129,14 @@ class IsmpcController:
         estimator: EstimatorParams | None = None,
     ):
         self.robot = robot
-        self.mpc_params = mpc if mpc is not None else MpcParams()
+        self.mpc_params = mpc if mpc is not None else mpc_params_for(robot)
         if not isinstance(robot, RobotParams):
             raise ParameterError(f"robot must be RobotParams, got {type(robot).__name__}")
         if self.mpc_params.control_horizon_s < robot.T_step_s - 1e-9:
             raise ParameterError(
                 f"control horizon {self.mpc_params.control_horizon_s} s is shorter than one step "
-                f"({robot.T_step_s} s = T_ss + T_ds of {robot.name}); use at least one step"
+                f"({robot.T_step_s} s = T_ss + T_ds of {robot.name}); set MpcParams.control_horizon_s to "
+                "at least one step, or leave mpc unset for a horizon fitted to the robot"
             )
         self.qp = IsmpcQp(robot, self.mpc_params, solver)
         self.eta = robot.eta

@@ -65,7 +65,8 @@ def robot_reference(robot: str) -> str:
 def gait_params(robot: str, sim: str):
     """The gait parameters (:class:`~robust_ismpc.params.RobotParams`) that a run of ``robot`` on
     ``sim`` uses: a robot file's (measured from its model, on either simulator), a built-in
-    robot's file on MuJoCo, its reduced model on the LIP.
+    robot's file on MuJoCo, on the LIP its reduced model if it has one (hrp4, nao, g1, op3),
+    else its file's.
 
     Raises
     ------
@@ -75,9 +76,9 @@ def gait_params(robot: str, sim: str):
     ModelError
         The file's model is missing or does not match the file.
     """
-    from .params import robot_params
+    from .params import ROBOT_DEFAULTS, robot_params
 
-    if sim == "mujoco" or is_robot_file(robot):
+    if sim == "mujoco" or is_robot_file(robot) or (robot in BUILTIN_ROBOTS and robot not in ROBOT_DEFAULTS):
         require_extra("sim", f"robot {robot}" if is_robot_file(robot) else "--sim mujoco")
         from .robots import load_robot
 

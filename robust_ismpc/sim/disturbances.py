@@ -331,7 +331,7 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
     """
     if not items:
         return spec.load_model()
-    mj_spec = mujoco.MjSpec.from_file(str(spec.model_path))
+    mj_spec = spec.mj_spec()
     for index, item in enumerate(items):
         if isinstance(item, Payload):
             link_name = item.link or spec.torso_body

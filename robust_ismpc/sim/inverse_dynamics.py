@@ -45,6 +45,34 @@ from .mujoco_robot import MujocoRobot
 SIDES = ("left", "right")
 
 
+def actuator_torque_limits_nm(model: mujoco.MjModel) -> np.ndarray:
+    """The joint torque interval each actuator of ``model`` can apply, shape (nu, 2) [N m].
+
+    The intersection, through the actuator's gear, of its force range (if force-limited), a
+    motor's control range times its gain (if control-limited; a position servo's control range is
+    an angle, not a torque) and its joint's actuator force range (if limited); ±inf where nothing
+    limits it.
+    """
+    limits = np.tile([-np.inf, np.inf], (model.nu, 1))
+    for a in range(model.nu):
+        gear = float(model.actuator_gear[a, 0])
+        gain = float(model.actuator_gainprm[a, 0])
+        motor = (int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_NONE)
+                 or not np.any(model.actuator_biasprm[a, :3]))
+        ranges = []
+        if model.actuator_forcelimited[a]:
+            ranges.append(model.actuator_forcerange[a] * gear)
+        if motor and model.actuator_ctrllimited[a]:
+            ranges.append(model.actuator_ctrlrange[a] * gain * gear)
+        joint = int(model.actuator_trnid[a, 0])
+        if model.jnt_actfrclimited[joint]:
+            ranges.append(model.jnt_actfrcrange[joint])
+        for bound in ranges:
+            low, high = float(min(bound)), float(max(bound))
+            limits[a] = max(limits[a, 0], low), min(limits[a, 1], high)
+    return limits
+
+
 @dataclass(frozen=True)
 class TorqueControlSettings:
     """Gains and weights of the inverse-dynamics QP.
@@ -199,11 +227,7 @@ class InverseDynamicsQp:
         self._dof = own.sim_dof_index
         self._qpos_index = own.sim_qpos_index
         self._friction_nm = model.dof_frictionloss[self._dof].copy()
-        self._limits = np.where(
-            model.jnt_actfrclimited[model.dof_jntid[self._dof]][:, None],
-            model.jnt_actfrcrange[model.dof_jntid[self._dof]],
-            np.array([-np.inf, np.inf]),
-        )
+        self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
         nv = model.nv
         self._M = np.zeros((nv, nv))
         self._jac_com_prev: np.ndarray | None = None
@@ -212,6 +236,8 @@ class InverseDynamicsQp:
         self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
         self._foot_acc = {side: np.zeros(3) for side in SIDES}
         self.failures = 0
+        #: Cycles whose QP had no solution within the torque limits and was solved without them.
+        self.limit_relaxations = 0
         self.last_torques_nm = np.zeros(len(self._dof))
         #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
         #: force then moment about the sole centre), for inspection and tests.
@@ -383,7 +409,15 @@ class InverseDynamicsQp:
         lower_all = np.maximum(lower_all, -finite)
         sense = np.zeros(len(upper_all), dtype=np.int32)
         sense[:len(rhs)] = 5  # equality rows
-        x, _, flag, _ = daqp.solve(np.ascontiguousarray(H), g, np.ascontiguousarray(A), upper_all, lower_all, sense)
+        H, A = np.ascontiguousarray(H), np.ascontiguousarray(A)
+        x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
+        if flag < 0 and np.isfinite(self._limits).any():
+            # no motion within the torque limits meets the contacts: take the unlimited solution
+            # (the motors saturate, as they would with any controller) rather than none
+            self.limit_relaxations += 1
+            torques = slice(len(upper_all) - len(self._dof), None)
+            upper_all[torques], lower_all[torques] = finite, -finite
+            x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0:
             self.failures += 1
             if self.failures > 50:

@@ -37,7 +37,7 @@ from ..reference import GaitReference, Measurement
 from ..robots.spec import RobotSpec
 from ..wbik import ActuatorMap, IkSettings, WholeBodyIk
 from .disturbances import Disturbance, ForceSchedule, SceneItem, build_scene, set_scene_initial_state
-from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
+from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings, actuator_torque_limits_nm
 from .mujoco_robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
 from .video import VideoRecorder
 
@@ -118,12 +118,48 @@ class LoopSettings:
 def _make_torque_motors(model: mujoco.MjModel) -> None:
     """Turn every actuator of ``model`` into a torque motor (``ctrl`` = joint torque), in place.
 
-    The joints' own actuator force limits (``actuatorfrcrange``) still bound the torque.
+    Each motor keeps the torque limits of the actuator it replaces
+    (:func:`~robust_ismpc.sim.inverse_dynamics.actuator_torque_limits_nm`: force range, a motor's
+    control range and gear, the joint's actuator force range), as a force range with gear 1.
     """
+    limits = actuator_torque_limits_nm(model)
+    model.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
+    model.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
     model.actuator_gainprm[:, :] = 0.0
     model.actuator_gainprm[:, 0] = 1.0
     model.actuator_biasprm[:, :] = 0.0
+    model.actuator_gear[:, :] = 0.0
+    model.actuator_gear[:, 0] = 1.0
     model.actuator_ctrllimited[:] = 0
+    bounded = np.all(np.isfinite(limits), axis=1)
+    model.actuator_forcelimited[:] = bounded
+    model.actuator_forcerange[bounded] = limits[bounded]
+
+
+def soft_servo_warning(spec: RobotSpec, motor_kp: float | None = None) -> str | None:
+    """A warning if servo playback cannot hold ``spec`` up, else None.
+
+    A leg joint held by a position servo of stiffness kp carries the robot like an inverted
+    pendulum of its weight on a torsional spring, which stands only if kp > m g h (m the mass, h
+    the CoM height). Motors are played back by the loop's PD law (``motor_kp``, default
+    :attr:`LoopSettings.motor_kp`).
+    """
+    motor_kp = LoopSettings().motor_kp if motor_kp is None else motor_kp
+    model = spec.load_model()
+    need = spec.mass_kg * 9.81 * spec.com_height_m
+    actuators = ActuatorMap(model, model)
+    soft = []
+    for a in range(model.nu):
+        joint = model.joint(int(model.actuator_trnid[a, 0])).name
+        kp = float(actuators.kp[a]) if actuators.is_position[a] else motor_kp
+        if joint in spec.leg_joints and kp < need:
+            soft.append((kp, joint))
+    if not soft:
+        return None
+    kp, joint = min(soft)
+    return (f"{spec.name}'s leg servos are too soft for servo playback: {len(soft)} of them are below "
+            f"m g h = {need:.0f} N m/rad (the stiffness that holds the robot up), {joint} has {kp:g}; "
+            "use --whole-body torque (the default)")
 
 
 def initial_state(spec: RobotSpec, model: mujoco.MjModel | None = None) -> tuple[np.ndarray, SolePose, SolePose]:

@@ -37,7 +37,7 @@ from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..lip_sim import INTERRUPTED
 from ..planner import plan_footsteps
 from ..report import summarize
-from ..robots.spec import load_robot
+from ..robots import load_robot
 from ..runner import RunResult, RunSpec, make_controller, run_meta
 from ..trace import TraceRecorder, controller_channels
 from ..wbik import IkSettings

