@@ -135,6 +135,7 @@ BAD_TOML_VALUES = [
     ("swing_height_m", "nan", "swing_height_m must be a finite number >= 0"),
     ("root_body", '"nobody"', "root_body 'nobody' not found in the model"),
     ("foot_frame_type", '"wheel"', "foot_frame_type must be 'site' or 'body'"),
+    ("swing_cop_gain_s2", '"big"', "gait.swing_cop_gain_s2 must be a number"),
 ]
 
 
@@ -142,6 +143,17 @@ BAD_TOML_VALUES = [
 def test_bad_toml_value_raises_our_exception(tmp_path: Path, key: str, value: str, message: str) -> None:
     """Each bad value in a robot file raises ParameterError or ModelError naming it, on one line."""
     pytest.importorskip("mujoco")
+    path = _user_toml(tmp_path, **{key: value})
     with pytest.raises((ParameterError, ModelError)) as info:
-        load_robot(_user_toml(tmp_path, **{key: value})).params()
+        load_robot(path).params()
     assert message in str(info.value) and "\n" not in str(info.value)
+    assert str(path) in str(info.value)
+
+
+def test_an_unknown_gait_key_names_the_file_and_the_key(tmp_path: Path) -> None:
+    """A [gait] key that is not a settable RobotParams field: one line naming the file and key."""
+    path = _user_toml(tmp_path)
+    path.write_text(path.read_text().replace("[gait]\n", "[gait]\nstep_height_m = 0.04\n"))
+    with pytest.raises(ParameterError, match="gait.step_height_m cannot be set") as info:
+        load_robot(path)
+    assert str(path) in str(info.value)

@@ -18,9 +18,11 @@ import tomllib
 
 from ..exceptions import ModelError, ParameterError
 from ..inputs import BUILTIN_ROBOTS
+from ..params import RobotParams, field_names
 from .spec import (
     _BUILTIN_DIR,
     _FRAME_TYPES,
+    MEASURED_FIELDS,
     RobotSpec,
     _as_vec3,
     _compile_model,
@@ -238,6 +240,10 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     gait = table.get("gait", {})
     if not isinstance(gait, dict):
         raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
+    settable = sorted(set(field_names(RobotParams)) - set(MEASURED_FIELDS))
+    for key in gait:
+        if key not in settable:
+            raise ParameterError(f"{toml_path}: gait.{key} cannot be set; allowed: {', '.join(settable)}")
     gait_overrides = tuple((str(k), _toml_number(toml_path, f"gait.{k}", v)) for k, v in gait.items())
     outline_value = table.get("sole_outline_m", [])
     try:
@@ -263,25 +269,29 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
                             offsets=offsets, posture=posture)
     except ModelError as exc:
         raise ModelError(f"{toml_path}: {exc}") from None
-    spec = RobotSpec(
-        name=str(table["name"]),
-        model_path=model_path,
-        root_body=str(table["root_body"]),
-        torso_body=str(table["torso_body"]),
-        left_foot=feet[0],
-        right_foot=feet[1],
-        foot_frame_type=frame_type,
-        left_sole_offset_m=offsets[0],
-        right_sole_offset_m=offsets[1],
-        **sole_size,
-        leg_joints=tuple(leg_joints),
-        standing_posture=posture,
-        gait_overrides=gait_overrides,
-        sole_outline_m=sole_outline,
-        sole_sites=sole_sites,
-        **simulation,
-        **measured,
-    )
+    try:
+        spec = RobotSpec(
+            name=str(table["name"]),
+            model_path=model_path,
+            root_body=str(table["root_body"]),
+            torso_body=str(table["torso_body"]),
+            left_foot=feet[0],
+            right_foot=feet[1],
+            foot_frame_type=frame_type,
+            left_sole_offset_m=offsets[0],
+            right_sole_offset_m=offsets[1],
+            **sole_size,
+            leg_joints=tuple(leg_joints),
+            standing_posture=posture,
+            gait_overrides=gait_overrides,
+            sole_outline_m=sole_outline,
+            sole_sites=sole_sites,
+            **simulation,
+            **measured,
+        )
+        spec.params()  # the gait values, checked now so that the message names the file
+    except ParameterError as exc:
+        raise ParameterError(f"{toml_path}: {exc}") from None
     logger.info(
         "loaded robot %s: mass %.2f kg, CoM height %.3f m, foot spacing %.3f m",
         spec.name, spec.mass_kg, spec.com_height_m, spec.foot_spacing_m,
