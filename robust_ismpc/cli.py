@@ -473,6 +473,7 @@ def cmd_robot(args) -> int:
     require_extra("sim", f"ismpc robot {args.robot_command}")
     if args.robot_command == "init":
         return _robot_init(args)
+    require_extra("plot", "ismpc robot check (its gait.png)")
     return _robot_check(args)
 
 
