@@ -83,6 +83,10 @@ def gait_params(robot: str, sim: str):
         from .robots import load_robot
 
         return load_robot(robot).params()
+    if robot not in ROBOT_DEFAULTS:
+        raise ParameterError(f"unknown robot {robot!r}; built-in robots are: "
+                             f"{', '.join(sorted(set(ROBOT_DEFAULTS) | set(BUILTIN_ROBOTS)))} "
+                             "(or the path of a robot file, .toml)")
     return robot_params(robot)
 
 
