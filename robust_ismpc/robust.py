@@ -134,6 +134,12 @@ class _TimingRecord:
     adapted_this_cycle: bool = False
     bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
 
+    def record(self, time_to_touchdown_s: float) -> None:
+        """Count one re-timing this cycle, with the time left to the re-timed touchdown [s]."""
+        self.adaptations += 1
+        self.adapted_this_cycle = True
+        self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
+
 
 class RobustIsmpcController(IsmpcController):
     """IS-MPC with the observer, restriction and timing modules selectable.
@@ -411,9 +417,7 @@ class RobustIsmpcController(IsmpcController):
         if not result.changed:
             return False
         plan.retime_touchdown(j, result.touchdown_time_s)
-        self.timing.adaptations += 1
-        self.timing.adapted_this_cycle = True
-        self.timing.min_time_to_step_s = min(self.timing.min_time_to_step_s, result.time_to_touchdown_s)
+        self.timing.record(result.time_to_touchdown_s)
         self._log.warning(
             "sta", t, f"step timing adapted: touchdown in {result.time_to_touchdown_s:.2f} s (was {remaining:.2f} s)"
         )
@@ -471,9 +475,7 @@ class RobustIsmpcController(IsmpcController):
             except BaseException:
                 plan.retime_touchdown(k, start + current)
                 raise
-            self.timing.adaptations += 1
-            self.timing.adapted_this_cycle = True
-            self.timing.min_time_to_step_s = min(self.timing.min_time_to_step_s, start + duration - t)
+            self.timing.record(start + duration - t)
             self._log.warning("sta", t, f"next single support re-timed in double support: {duration:.2f} s "
                                         f"(was {current:.2f} s)")
             return result

@@ -7,39 +7,16 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from robust_ismpc.reference import FootReference, GaitReference, Measurement, Support
-from robust_ismpc.sim.mujoco_robot import SolePose
+from robust_ismpc.reference import GaitReference, Measurement
 
 mujoco = pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 
 from robust_ismpc.robots import RobotSpec, load_robot  # noqa: E402
+from robust_ismpc.sim.check import still_reference as double_support_reference  # noqa: E402
 from robust_ismpc.sim.mujoco_loop import initial_state  # noqa: E402
 
 ROBOT_NAMES = ("g1", "op3")
-
-
-def double_support_reference(
-    t_s: float, com_pos_m: np.ndarray, left: SolePose, right: SolePose
-) -> GaitReference:
-    """A still double-support reference: CoM at ``com_pos_m``, ZMP below it, feet where given."""
-    def foot(pose: SolePose) -> FootReference:
-        return FootReference(pos_m=pose.pos_m.copy(), yaw_rad=pose.yaw_rad, vel_mps=np.zeros(3),
-                             yaw_rate_radps=0.0, in_contact=True)
-
-    return GaitReference(
-        t_s=t_s,
-        com_pos_m=np.asarray(com_pos_m, dtype=float).copy(),
-        com_vel_mps=np.zeros(3),
-        com_acc_mps2=np.zeros(3),
-        zmp_m=np.asarray(com_pos_m[:2], dtype=float).copy(),
-        left_foot=foot(left),
-        right_foot=foot(right),
-        torso_yaw_rad=0.5 * (left.yaw_rad + right.yaw_rad),
-        support=Support.DOUBLE,
-        step_index=0,
-        time_to_step_s=0.0,
-    )
 
 
 class StandingController:

@@ -18,17 +18,17 @@ import tomllib
 
 from ..exceptions import ModelError, ParameterError
 from ..inputs import BUILTIN_ROBOTS
-from ..params import RobotParams, field_names
 from .spec import (
     _BUILTIN_DIR,
     _FRAME_TYPES,
-    MEASURED_FIELDS,
+    GAIT_FIELDS,
     RobotSpec,
     _as_vec3,
     _compile_model,
     _posture_qpos,
     foot_frame_pose,
     frame_id,
+    has_floor,
 )
 
 logger = logging.getLogger("robust_ismpc")
@@ -211,8 +211,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
         )
     model_path = _resolve_model_path(toml_path, table)
     model = _compile_model(str(model_path), model_path.stat().st_mtime)
-    if not any(model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)
-               for g in range(model.ngeom)):
+    if not has_floor(model):
         raise ModelError(f"{toml_path}: model {str(model_path)!r} has no floor (a plane geom of the world "
                          "body); point model at a scene file that adds one")
     frame_type = table["foot_frame_type"]
@@ -240,10 +239,9 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     gait = table.get("gait", {})
     if not isinstance(gait, dict):
         raise ParameterError(f"{toml_path}: gait must be a table of RobotParams fields")
-    settable = sorted(set(field_names(RobotParams)) - set(MEASURED_FIELDS))
     for key in gait:
-        if key not in settable:
-            raise ParameterError(f"{toml_path}: gait.{key} cannot be set; allowed: {', '.join(settable)}")
+        if key not in GAIT_FIELDS:
+            raise ParameterError(f"{toml_path}: gait.{key} cannot be set; allowed: {', '.join(GAIT_FIELDS)}")
     gait_overrides = tuple((str(k), _toml_number(toml_path, f"gait.{k}", v)) for k, v in gait.items())
     outline_value = table.get("sole_outline_m", [])
     try:

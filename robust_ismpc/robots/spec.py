@@ -29,6 +29,8 @@ _BUILTIN_DIR = Path(__file__).resolve().parent
 
 #: RobotParams fields that are measured from the model and may not be overridden in ``[gait]``.
 MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_length_m", "sole_width_m")
+#: RobotParams fields that a robot file's ``[gait]`` may set.
+GAIT_FIELDS = tuple(sorted(set(f.name for f in fields(RobotParams)) - set(MEASURED_FIELDS)))
 
 _FRAME_TYPES = ("site", "body")
 
@@ -164,11 +166,10 @@ class RobotSpec:
         if self.sole_outline_m and (len(outline) < 3 or not np.all(np.isfinite(outline))):
             raise ParameterError(f"{owner}.sole_outline_m must be at least 3 finite (x, y) vertices [m]")
         object.__setattr__(self, "sole_outline_m", tuple((float(x), float(y)) for x, y in outline))
-        allowed = set(f.name for f in fields(RobotParams)) - set(MEASURED_FIELDS)
         for key, _ in self.gait_overrides:
-            if key not in allowed:
+            if key not in GAIT_FIELDS:
                 raise ParameterError(
-                    f"{owner}.gait_overrides: {key!r} cannot be set; allowed: {', '.join(sorted(allowed))}"
+                    f"{owner}.gait_overrides: {key!r} cannot be set; allowed: {', '.join(GAIT_FIELDS)}"
                 )
 
     @property
@@ -234,7 +235,7 @@ class RobotSpec:
         for built-in and user robots alike. Mass, CoM height, sole size and foot spacing are the
         measured values. The ZMP box is shrunk to fit in the sole if needed.
         """
-        values = _scaled_gait_defaults(self)
+        values = scaled_gait_defaults(self.com_height_m, self.sole_length_m, self.sole_width_m, self.foot_spacing_m)
         values.update(dict(self.gait_overrides))
         values.update(
             name=self.name,
@@ -249,14 +250,15 @@ class RobotSpec:
         return RobotParams(**values)
 
 
-def _scaled_gait_defaults(spec: RobotSpec) -> dict[str, Any]:
-    """Gait defaults for a robot without built-in parameters, scaled on its size."""
-    h = spec.com_height_m
+def scaled_gait_defaults(com_height_m: float, sole_length_m: float, sole_width_m: float,
+                         foot_spacing_m: float) -> dict[str, Any]:
+    """Gait values (``RobotParams`` fields) scaled on a robot's size, the defaults of ``[gait]``."""
+    h = com_height_m
     return dict(
-        zmp_box_x_m=0.5 * spec.sole_length_m,
-        zmp_box_y_m=0.5 * spec.sole_width_m,
+        zmp_box_x_m=0.5 * sole_length_m,
+        zmp_box_y_m=0.5 * sole_width_m,
         kin_box_x_m=0.5 * h,
-        kin_box_y_m=max(0.5 * spec.foot_spacing_m, 0.02),
+        kin_box_y_m=max(0.5 * foot_spacing_m, 0.02),
         max_yaw_step_rad=0.3,
         T_ss_s=round(max(0.25, 0.8 * math.sqrt(h / 1.0)), 2),
         T_ds_s=round(max(0.1, 0.3 * math.sqrt(h / 1.0)), 2),
@@ -292,6 +294,12 @@ def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
             raise ModelError(f"body {body_name!r} for the site {name!r} not found in the model {path!r}")
         body.add_site(name=name, pos=list(pos), quat=list(quat))
     return spec
+
+
+def has_floor(model: mujoco.MjModel) -> bool:
+    """True if the model has a floor: a plane geom of the world body."""
+    return any(model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)
+               for g in range(model.ngeom))
 
 
 def _free_qpos_adr(model: mujoco.MjModel, root_body: str) -> int:

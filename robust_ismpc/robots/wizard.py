@@ -27,8 +27,9 @@ import mujoco
 import numpy as np
 
 from ..exceptions import ModelError, ParameterError
+from ..sim.mujoco_robot import convex_hull
 from ..wbik import IkSettings
-from .spec import _compile_model, _scaled_gait_defaults
+from .spec import _compile_model, has_floor, scaled_gait_defaults
 
 #: Sole points: geometry within this distance of the foot's lowest point along its −z [m].
 SOLE_TOLERANCE_M = 0.006
@@ -69,13 +70,6 @@ def _free_body(model: mujoco.MjModel) -> int:
                 raise ModelError(f"the floating base {model.body(body).name!r} must be the model's first body")
             return body
     raise ModelError("the model has no free joint (floating base)")
-
-
-def _check_floor(model: mujoco.MjModel) -> None:
-    if not any(model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)
-               for g in range(model.ngeom)):
-        raise ModelError("the model has no floor (a plane geom of the world body); "
-                         "load the robot from a scene file that adds one")
 
 
 def _collision_geoms(model: mujoco.MjModel, body: int) -> list[int]:
@@ -174,25 +168,6 @@ def _sole(model, data, body: int, rotation: np.ndarray) -> tuple[np.ndarray, np.
     lo, hi = sole[:, :2].min(axis=0), sole[:, :2].max(axis=0)
     centre = np.array([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), low])
     return sole[:, :2] - centre[:2], rotation @ centre, float(hi[0] - lo[0]), float(hi[1] - lo[1])
-
-
-def _hull(points: np.ndarray) -> list[tuple[float, float]]:
-    """Convex hull, counter-clockwise (monotone chain)."""
-    pts = sorted({(round(float(x), 6), round(float(y), 6)) for x, y in points})
-    if len(pts) < 3:
-        return pts
-
-    def half(seq):
-        out: list[tuple[float, float]] = []
-        for p in seq:
-            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (p[1] - out[-2][1])
-                                     - (out[-1][1] - out[-2][1]) * (p[0] - out[-2][0])) <= 0:
-                out.pop()
-            out.append(p)
-        return out
-
-    lower, upper = half(pts), half(reversed(pts))
-    return lower[:-1] + upper[:-1]
 
 
 def _leg_joints(model, root: int, foot: int) -> list[str]:
@@ -307,7 +282,9 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
     if not path.is_file():
         raise ModelError(f"model file {str(model_path)!r} not found")
     model = _compile_model(str(path), path.stat().st_mtime)
-    _check_floor(model)
+    if not has_floor(model):
+        raise ModelError("the model has no floor (a plane geom of the world body); "
+                         "load the robot from a scene file that adds one")
     root = _free_body(model)
     data = mujoco.MjData(model)
     q0 = model.key_qpos[0].copy() if model.nkey else model.qpos0.copy()
@@ -338,7 +315,7 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
         outlines.append(points)
     length = min(s[0] for s in sizes)
     width = min(s[1] for s in sizes)
-    outline = _hull(outlines[0])
+    outline = [(round(float(x), 6), round(float(y), 6)) for x, y in convex_hull(outlines[0])]
     chains = (_leg_joints(model, root, left), _leg_joints(model, root, right))
     leg_joints = [j for j in chains[0] + chains[1] if j not in set(chains[0]) & set(chains[1])]  # not a waist
     q, com_height, spacing, notes = min(
@@ -403,13 +380,7 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
                               f'model = "{draft.model_path.relative_to(base).as_posix()}"')
                 break
 
-    class _Sizes:  # what _scaled_gait_defaults reads
-        com_height_m = draft.com_height_m
-        sole_length_m = draft.sole_length_m
-        sole_width_m = draft.sole_width_m
-        foot_spacing_m = draft.foot_spacing_m
-
-    gait = _scaled_gait_defaults(_Sizes)  # type: ignore[arg-type]
+    gait = scaled_gait_defaults(draft.com_height_m, draft.sole_length_m, draft.sole_width_m, draft.foot_spacing_m)
     lines = [
         f"# {draft.name}: drafted by `ismpc robot init` from {draft.model_path.name}. Format: docs/robots.md.",
         "# Check it with `ismpc robot check THIS_FILE --out DIR` before you rely on it.",

@@ -21,14 +21,17 @@ from .inverse_dynamics import TorqueControlSettings
 from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
 
 
-def _still_reference(t_s: float, com_pos_m: np.ndarray, left, right) -> GaitReference:
+def still_reference(t_s: float, com_pos_m: np.ndarray, left, right) -> GaitReference:
+    """A still double-support reference: CoM at ``com_pos_m``, ZMP below it, the soles (SolePose)
+    where given."""
+
     def foot(pose) -> FootReference:
         return FootReference(pos_m=pose.pos_m.copy(), yaw_rad=pose.yaw_rad, vel_mps=np.zeros(3),
                              yaw_rate_radps=0.0, in_contact=True)
 
     return GaitReference(
-        t_s=t_s, com_pos_m=com_pos_m.copy(), com_vel_mps=np.zeros(3), com_acc_mps2=np.zeros(3),
-        zmp_m=com_pos_m[:2].copy(), left_foot=foot(left), right_foot=foot(right),
+        t_s=t_s, com_pos_m=np.asarray(com_pos_m, dtype=float).copy(), com_vel_mps=np.zeros(3), com_acc_mps2=np.zeros(3),
+        zmp_m=np.asarray(com_pos_m[:2], dtype=float).copy(), left_foot=foot(left), right_foot=foot(right),
         torso_yaw_rad=0.5 * (left.yaw_rad + right.yaw_rad), support=Support.DOUBLE, step_index=0,
         time_to_step_s=0.0,
     )
@@ -50,7 +53,7 @@ def stand(spec: RobotSpec, duration_s: float = 5.0) -> dict:
     drift, sag, fell_at = 0.0, 0.0, None
     for _ in range(int(round(duration_s / period))):
         measurement, _ = sim.measure()
-        sim.command(_still_reference(float(sim.data.time) + period, com0, left, right))
+        sim.command(still_reference(float(sim.data.time) + period, com0, left, right))
         sim.advance()
         com = np.asarray(measurement.com_pos_m, dtype=float)
         drift = max(drift, float(np.linalg.norm(com[:2] - com0[:2])))
