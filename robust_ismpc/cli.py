@@ -189,13 +189,15 @@ def _compare_scenario(args) -> int:
     from .io import atomic_write_json
     from .plotting import plot_comparison
     from .runner import parse_modules
-    from .scenarios import disturbance_events, get_scenario, run_scenario
+    from .scenarios import disturbance_events, get_scenario, on_robot, run_scenario
 
     scenario = get_scenario(args.scenario)
-    fixed = {"--robot": (args.robot, scenario.robot), "--sim": (args.sim, "mujoco")}
-    for flag, (given, value) in fixed.items():
-        if given is not None and given != value:
-            raise ParameterError(f"scenario {scenario.name} runs {flag} {value}; drop {flag} {given}")
+    if args.sim is not None and args.sim != "mujoco":
+        raise ParameterError(f"scenario {scenario.name} runs --sim mujoco; drop --sim {args.sim}")
+    if args.robot is not None:
+        from .inputs import robot_reference
+
+        scenario = on_robot(scenario, robot_reference(args.robot))
     for flag, given in (("--vx", args.vx), ("--vy", args.vy), ("--omega", args.omega), ("--delta-max", args.delta_max)):
         if given is not None:
             raise ParameterError(f"scenario {scenario.name} fixes its command and modules; {flag} is not allowed with it")
@@ -534,7 +536,7 @@ def _robot_check(args) -> int:
 
     robot = robot_reference(args.file)
     out = _open_out(args)
-    report, result = check_robot(robot, vx_mps=args.vx)
+    report, result = check_robot(robot, walk_s=args.walk_duration, vx_mps=args.vx)
     atomic_write_json(out / "check.json", report)
     _write_run(result, out, title=f"{report['robot_name']}: walk of `ismpc robot check`")
     stand, walk = report["stand"], report["walk"]

@@ -143,7 +143,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p_cmp.add_argument("scenario", nargs="?", default=None,
                        help="optional named scenario: paper-bag, paper-ball, paper-push (see `ismpc scenarios`). "
-                       "A scenario fixes robot, simulator (mujoco), command, duration and disturbances; --duration "
+                       "A scenario fixes robot, simulator (mujoco), command, duration and disturbances; --robot "
+                       "moves it to another robot of a similar size (standing CoM within 2x; the disturbances scale "
+                       "with the mass), --duration "
                        "overrides its duration, --force/--push ADD forces (unscaled, on the torso) to its own, "
                        "--seed varies its push time and magnitude (seed 0 = the paper's values)")
     _add_run_arguments(p_cmp, with_controller=False)
@@ -263,10 +265,13 @@ def build_parser() -> argparse.ArgumentParser:
     p_check = robot_sub.add_parser(
         "check", help="stand a robot 5 s and walk it 5 s in MuJoCo; report and picture",
         description="Hold the robot still in double support for 5 s (torque control), then walk it forward "
-        "with the nominal controller for 5 s. Writes OUT/check.json, OUT/gait.png and OUT/summary.json.")
+        "with the nominal controller for 5 s (--walk-duration). Writes OUT/check.json, OUT/gait.png and "
+        "OUT/summary.json.")
     p_check.add_argument("file", help="robot file (.toml) or built-in robot name")
     p_check.add_argument("--vx", type=_finite_float("vx"), default=None,
                          help="walking speed [m/s] (default: half of what the robot's steps allow)")
+    p_check.add_argument("--walk-duration", type=_positive_float("walk-duration", MAX_SIM_DURATION_S), default=5.0,
+                         help="walking time after the first step [s] (default 5)")
     p_check.add_argument("--out", required=True, help="output directory")
     p_check.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
     return parser

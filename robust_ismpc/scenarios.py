@@ -93,8 +93,8 @@ class BagSpec:
         Bag mass in the paper [kg] (scaled by ``robot mass / reference_robot_mass_kg``).
     reference_robot_mass_kg : float
         Mass of the paper's robot [kg].
-    link : str
-        Robot body it hangs from (the lowest link of the right arm).
+    link : str or None
+        Robot body it hangs from; None: the end of the right arm (:func:`right_arm_end`).
     attach_offset_m : tuple of 3 float
         Attachment point in the link frame [m].
     rope_length_m : float
@@ -109,7 +109,7 @@ class BagSpec:
 
     reference_mass_kg: float = 0.67
     reference_robot_mass_kg: float = 5.4
-    link: str = "r_el_link"
+    link: str | None = None
     attach_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rope_length_m: float = 0.10
     radius_m: float = 0.03
@@ -121,8 +121,8 @@ class BagSpec:
             _check_number("BagSpec", name, getattr(self, name), positive=True)
         _check_number("BagSpec", "initial_angle_rad", self.initial_angle_rad)
         _check_number("BagSpec", "damping_nms", self.damping_nms, nonnegative=True)
-        if not (isinstance(self.link, str) and self.link):
-            raise ParameterError(f"BagSpec.link must be a body name, got {self.link!r}")
+        if self.link is not None and not (isinstance(self.link, str) and self.link):
+            raise ParameterError(f"BagSpec.link must be a body name or None, got {self.link!r}")
         offset = tuple(float(v) for v in self.attach_offset_m)
         if len(offset) != 3 or not all(math.isfinite(v) for v in offset):
             raise ParameterError(f"BagSpec.attach_offset_m must be 3 finite numbers, got {self.attach_offset_m!r}")
@@ -235,7 +235,8 @@ class Scenario:
     paper : str
         What the paper reports for this experiment (the expected outcome).
     robot : str
-        Built-in robot with a MuJoCo model.
+        Robot with a MuJoCo model: a built-in name or a robot file (:func:`on_robot` moves the
+        scenario to another robot of a similar size).
     command : WalkCommand
         Velocity command (straight walks: the commanded path is the x axis through the start).
     duration_s : float
@@ -445,6 +446,68 @@ def _torso_back(robot_spec, com_xy: np.ndarray, height_m: float | None) -> tuple
     return float(lo[0] - com[0]), float(z)
 
 
+def right_arm_end(robot_spec) -> str:
+    """The body at the end of the robot's right arm, where the paper's bag hangs.
+
+    In the standing posture: the highest body without children that lies more than 2 cm to the
+    right of the base and is not on a leg (a foot or its parents).
+    """
+    import mujoco
+
+    from .sim.mujoco_robot import standing_state
+
+    model = robot_spec.load_model()
+    data = mujoco.MjData(model)
+    standing_state(robot_spec, model, data)
+    mujoco.mj_kinematics(model, data)
+    root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, robot_spec.root_body)
+    legs = set()
+    for frame in (robot_spec.left_foot, robot_spec.right_foot):
+        if robot_spec.foot_frame_type == "site":
+            body = int(model.site_bodyid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, frame)])
+        else:
+            body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, frame)
+        while body > 0:
+            legs.add(body)
+            body = int(model.body_parentid[body])
+    parents = set(int(p) for p in model.body_parentid[1:])
+    frame = data.xmat[root].reshape(3, 3)
+    ends = [(float((frame.T @ (data.xpos[b] - data.xpos[root]))[2]), b) for b in range(1, model.nbody)
+            if b not in parents and b not in legs and (frame.T @ (data.xpos[b] - data.xpos[root]))[1] < -0.02]
+    if not ends:
+        raise ParameterError(f"{robot_spec.name}: no right arm found for the bag (a childless body right of the base)")
+    return model.body(max(ends)[1]).name
+
+
+#: A scenario runs on a robot whose standing CoM height is within this factor of its own robot's.
+SIZE_FACTOR = 2.0
+
+
+def on_robot(scenario: Scenario, robot: str) -> Scenario:
+    """``scenario`` on ``robot`` (a built-in name or a robot file) instead of its own.
+
+    The disturbances scale with the robot's mass as on the scenario's own robot; the robot must
+    be of a similar size: its standing CoM height within :data:`SIZE_FACTOR` of the scenario
+    robot's.
+
+    Raises
+    ------
+    ParameterError
+        The robot is of another size (the message gives both heights), or unknown or invalid.
+    """
+    from .robots import load_robot
+
+    if robot == scenario.robot:
+        return scenario
+    own, other = load_robot(scenario.robot), load_robot(robot)
+    ratio = other.com_height_m / own.com_height_m
+    if not 1.0 / SIZE_FACTOR <= ratio <= SIZE_FACTOR:
+        raise ParameterError(
+            f"scenario {scenario.name} is for robots of {own.name}'s size (standing CoM {own.com_height_m:.2f} m, "
+            f"within a factor {SIZE_FACTOR:g}); {other.name}'s CoM is at {other.com_height_m:.2f} m")
+    return replace(scenario, robot=robot)
+
+
 def _reference_com(robot_spec, spec: RunSpec, t_s: float) -> np.ndarray:
     """Reference CoM (x, y) of the nominal controller at ``t_s``, built as ``run_mujoco_spec`` does."""
     from .planner import plan_footsteps
@@ -512,10 +575,11 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     if scenario.bag is not None:
         bag = scenario.bag
         bag_mass = bag.reference_mass_kg * mass / bag.reference_robot_mass_kg * scale
-        items.append(Payload(mass_kg=bag_mass, rope_length_m=bag.rope_length_m, link=bag.link,
+        link = bag.link or right_arm_end(robot_spec)
+        items.append(Payload(mass_kg=bag_mass, rope_length_m=bag.rope_length_m, link=link,
                              attach_offset_m=bag.attach_offset_m, radius_m=bag.radius_m,
                              initial_angle_rad=bag.initial_angle_rad, damping_nms=bag.damping_nms))
-        details["bag"] = {"mass_kg": round(bag_mass, 4), "link": bag.link, "rope_length_m": bag.rope_length_m}
+        details["bag"] = {"mass_kg": round(bag_mass, 4), "link": link, "rope_length_m": bag.rope_length_m}
     if scenario.ball is not None:
         ball = scenario.ball
         ball_mass = ball.reference_mass_kg * mass / ball.reference_robot_mass_kg

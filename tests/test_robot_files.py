@@ -83,3 +83,20 @@ def test_a_bad_robot_exits_2_with_one_line(tmp_path, capsys, robot, message):
     code, captured = _main(["run", "--sim", "mujoco", "--robot", robot, "--out", str(tmp_path / "o")], capsys)
     assert code == 2
     assert message in captured.err and len(captured.err.strip().splitlines()) == 1
+
+
+def test_a_scenario_runs_on_a_robot_file_of_its_robots_size(op3_copy, tmp_path, capsys):
+    """``compare paper-bag --robot FILE`` runs the scenario on the file's robot (the bag found
+    at the end of its right arm, mass scaled with the robot); a robot of another size is refused
+    with one line giving both CoM heights."""
+    out = tmp_path / "bag"
+    code, captured = _main(["compare", "paper-bag", "--robot", str(op3_copy), "--duration", "0.5",
+                            "--out", str(out)], capsys)
+    assert code == 0, captured.err
+    comparison = json.loads((out / "comparison.json").read_text())
+    assert comparison["realised"]["robot"] == str(op3_copy.resolve())
+    assert comparison["realised"]["bag"]["link"] == "r_el_link"
+    code, captured = _main(["compare", "paper-push", "--robot", str(op3_copy), "--out", str(tmp_path / "push")],
+                           capsys)
+    assert code == 2
+    assert "0.60 m" in captured.err and "0.24 m" in captured.err and len(captured.err.strip().splitlines()) == 1

@@ -156,9 +156,11 @@ def test_compare_whole_body_flag_overrides_the_scenarios(tmp_path) -> None:
     assert json.loads((out / "robust" / "summary.json").read_text())["whole_body"] == "servo"
 
 
-def test_compare_scenario_rejects_conflicting_robot(tmp_path) -> None:
-    """A scenario fixes the robot: --robot g1 with paper-ball is a usage error."""
+def test_compare_scenario_rejects_a_robot_of_another_size(tmp_path, capsys) -> None:
+    """paper-ball is an OP3-sized scenario (standing CoM 0.24 m): --robot g1 (0.60 m, more than
+    twice as tall) is a usage error that names the sizes."""
     assert main(["compare", "paper-ball", "--robot", "g1", "--out", str(tmp_path / "x")]) == 2
+    assert "op3's size" in capsys.readouterr().err
 
 
 CLOSED_LOOP_GAP = "closed loop: the paper's outcome does not reproduce yet (docs/closed-loop.md, paper scenarios)"

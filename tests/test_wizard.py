@@ -17,7 +17,7 @@ pytest.importorskip("mink")
 
 from robust_ismpc.robots import load_robot  # noqa: E402
 from robust_ismpc.robots.spec import _BUILTIN_DIR  # noqa: E402
-from robust_ismpc.robots.wizard import draft_robot, robot_file_text  # noqa: E402
+from robust_ismpc.robots.wizard import draft_robot, inscribed_rectangle, robot_file_text  # noqa: E402
 
 
 def _menagerie(name: str, scene: str = "scene.xml") -> Path:
@@ -35,7 +35,7 @@ def test_the_draft_of_op3_finds_what_its_hand_written_file_says():
     np.testing.assert_allclose(draft.sole_offset_m["left"], op3.left_sole_offset_m, atol=1e-3)
     np.testing.assert_allclose(draft.sole_offset_m["right"], op3.right_sole_offset_m, atol=1e-3)
     assert draft.sole_width_m == pytest.approx(op3.sole_width_m, abs=1e-3)
-    assert draft.sole_length_m >= op3.sole_length_m
+    assert draft.sole_length_m == pytest.approx(op3.sole_length_m, abs=1e-3)
     assert set(draft.leg_joints) == set(op3.leg_joints)
     assert draft.sole_quat == {}
 
@@ -54,6 +54,39 @@ def test_a_drafted_file_loads_with_level_soles_and_a_bent_knee_stance(tmp_path, 
     assert spec.foot_spacing_m > spec.sole_width_m
     assert (spec.foot_frame_type == "site") == (model == "berkeley_humanoid")
     assert not draft.notes
+
+
+@pytest.mark.parametrize("points,lower,upper", [
+    ([(0, 0), (2, 0), (2, 1), (0, 1), (1, 0.5)], (0, 0), (2, 1)),  # a rectangle is its own
+    ([(0, 0), (2, -1), (2, 1)], (1, -0.5), (2, 0.5)),  # a triangle: half its height, half its base
+    ([(-1, -0.5), (1, -0.6), (1, 0.6), (-1, 0.5)], (-1, -0.5), (1, 0.5)),  # a trapezoid: its narrow end
+])
+def test_the_sole_rectangle_is_the_largest_inside_the_hull(points, lower, upper):
+    """Known largest axis-aligned rectangles inside convex polygons."""
+    low, high = inscribed_rectangle(np.array(points, dtype=float), samples=401)
+    np.testing.assert_allclose(low, lower, atol=1e-2)
+    np.testing.assert_allclose(high, upper, atol=1e-2)
+
+
+def test_the_g1_draft_has_the_sole_of_the_built_in_file_inside_its_tapered_foot():
+    """G1's sole points taper from 6 cm at the toe to 5 cm at the heel: the sole rectangle is the
+    5 cm that bears load along the whole foot (a 6 cm rectangle let the torque control put the
+    centre of pressure where the heel does not touch, and the draft fell at 9.4 s of a 10 s
+    walk), and the hull is kept as the outline."""
+    draft = draft_robot(_menagerie("unitree_g1"))
+    g1 = load_robot("g1")
+    assert draft.sole_width_m == pytest.approx(g1.sole_width_m, abs=1e-3)
+    assert draft.sole_length_m == pytest.approx(g1.sole_length_m, abs=1e-3)
+    np.testing.assert_allclose(draft.sole_offset_m["left"], g1.left_sole_offset_m, atol=1e-3)
+    assert len(draft.sole_outline_m) == 4
+
+
+def test_a_leg_without_six_directions_is_named_in_the_notes():
+    """H1's legs have five joints (no ankle roll): the draft says so, for each leg, and names
+    the direction the sole cannot take relative to the base."""
+    draft = draft_robot(_menagerie("unitree_h1"))
+    mobility = [n for n in draft.notes if "of 6 directions" in n]
+    assert len(mobility) == 2 and all("5 of 6" in n and "sideways" in n for n in mobility)
 
 
 def test_a_model_without_floor_or_floating_base_is_refused(tmp_path):

@@ -7,7 +7,8 @@
   keyframe (or ``qpos0``), one each side of the base; or the bodies the user names;
 - each sole: the points of the foot's collision geometry within :data:`SOLE_TOLERANCE_M` of its
   lowest point along the foot frame's −z (box corners, sphere and capsule bottoms, cylinder rims,
-  mesh vertices), their bounding rectangle and, when they do not fill it, their convex hull;
+  mesh vertices); the sole rectangle is the largest one inside their convex hull, and the hull
+  is kept as the outline when it is larger;
 - the leg joints: the joints from the base to each foot;
 - a standing posture: whole-body IK with the soles flat on the floor at the keyframe's stance,
   the base level and the CoM over the middle of the soles at :data:`STANDING_HEIGHT_FRACTION`
@@ -165,9 +166,52 @@ def _sole(model, data, body: int, rotation: np.ndarray) -> tuple[np.ndarray, np.
         raise ModelError(f"foot body {model.body(body).name!r} has no geometry")
     low = points[:, 2].min()
     sole = points[points[:, 2] <= low + SOLE_TOLERANCE_M]
-    lo, hi = sole[:, :2].min(axis=0), sole[:, :2].max(axis=0)
-    centre = np.array([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), low])
-    return sole[:, :2] - centre[:2], rotation @ centre, float(hi[0] - lo[0]), float(hi[1] - lo[1])
+    (x0, y0), (x1, y1) = inscribed_rectangle(sole[:, :2])
+    centre = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1), low])
+    return sole[:, :2] - centre[:2], rotation @ centre, float(x1 - x0), float(y1 - y0)
+
+
+def inscribed_rectangle(points: np.ndarray, samples: int = 201) -> tuple[np.ndarray, np.ndarray]:
+    """The largest axis-aligned rectangle inside the convex hull of planar points.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 2)
+        Points (x, y) [m].
+    samples : int
+        Candidate x positions of the rectangle's sides, evenly spaced over the hull.
+
+    Returns
+    -------
+    tuple of ndarray, shape (2,)
+        The lower and upper corners (x, y) [m]. Points along a line give a zero-width rectangle.
+
+    Notes
+    -----
+    Over the hull, the upper boundary y_hi(x) is concave and the lower y_lo(x) convex, so over
+    [x0, x1] the height that fits is min(y_hi(x0), y_hi(x1)) - max(y_lo(x0), y_lo(x1)): the
+    search is over pairs of sampled sides.
+    """
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    hull = convex_hull(pts)
+    if len(hull) < 3 or hi[0] - lo[0] <= 0.0:
+        return lo, hi
+    xs = np.linspace(lo[0], hi[0], samples)
+    y_lo, y_hi = np.full(samples, np.inf), np.full(samples, -np.inf)
+    for a, b in zip(hull, np.roll(hull, -1, axis=0)):
+        if a[0] == b[0]:
+            continue
+        s = (xs - a[0]) / (b[0] - a[0])
+        on = (s >= -1e-12) & (s <= 1 + 1e-12)
+        y = a[1] + np.clip(s, 0.0, 1.0) * (b[1] - a[1])
+        y_lo[on] = np.minimum(y_lo[on], y[on])
+        y_hi[on] = np.maximum(y_hi[on], y[on])
+    top = np.minimum(y_hi[:, None], y_hi[None, :])
+    bottom = np.maximum(y_lo[:, None], y_lo[None, :])
+    area = np.triu((xs[None, :] - xs[:, None]) * np.clip(top - bottom, 0.0, None))
+    i, j = np.unravel_index(int(np.argmax(area)), area.shape)
+    return np.array([xs[i], bottom[i, j]]), np.array([xs[j], top[i, j]])
 
 
 def _leg_joints(model, root: int, foot: int) -> list[str]:
@@ -266,6 +310,34 @@ def _bent_knee_starts(model, data, q0: np.ndarray, chains) -> list[np.ndarray]:
     return [q0] + (list(bent.values()) if found else [])
 
 
+def _leg_mobility_notes(model, q: np.ndarray, feet: dict[str, int], chains: dict[str, list[str]]) -> list[str]:
+    """Notes for legs that cannot move their sole in all six directions relative to the base.
+
+    With fewer, the sole cannot stay flat while the base moves over it (a leg without an ankle
+    roll cannot shift the hips sideways over a flat foot), which a ZMP-based gait needs.
+    """
+    data = mujoco.MjData(model)
+    data.qpos[:] = q
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    names = ("forward", "sideways", "up", "roll", "pitch", "yaw")
+    notes = []
+    for side, body in feet.items():
+        dofs = [int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j)]) for j in chains[side]]
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        mujoco.mj_jacBody(model, data, jacp, jacr, body)
+        jac = np.vstack([jacp, jacr])[:, dofs]
+        u, sv, _ = np.linalg.svd(jac)
+        rank = int(np.sum(sv > 1e-3 * sv.max())) if len(sv) else 0
+        if rank < 6:
+            missing = names[int(np.argmax(np.abs(u[:, -1])))]
+            notes.append(
+                f"the {side} leg moves its sole in {rank} of 6 directions relative to the base "
+                f"({len(dofs)} joints; the missing one is mostly {missing}): with the sole flat the hips cannot move "
+                "freely over it, and the robot is unlikely to walk (`ismpc robot check` tells)")
+    return notes
+
+
 def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot: str | None = None,
                 name: str | None = None) -> RobotDraft:
     """Find in an MJCF scene what a robot file needs (module docstring).
@@ -323,6 +395,7 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
          for start in _bent_knee_starts(model, data, q0, chains)),
         key=lambda result: len(result[3]),
     )
+    notes = notes + _leg_mobility_notes(model, q, feet, dict(zip(("left", "right"), chains)))
     posture = {}
     for j in range(model.njnt):
         if int(model.jnt_type[j]) in _MOVING_JOINTS:
@@ -342,7 +415,7 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
         if any(not np.allclose(r, np.eye(3)) for r in rotations.values()) else {},
         sole_length_m=round(length, 4),
         sole_width_m=round(width, 4),
-        sole_outline_m=outline if len(outline) >= 3 and hull_area < 0.95 * box_area else [],
+        sole_outline_m=outline if len(outline) >= 3 and box_area < 0.95 * hull_area else [],
         leg_joints=leg_joints,
         standing_posture=posture,
         com_height_m=com_height,
@@ -391,8 +464,8 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
         'foot_frame_type = "body"',
         f'left_foot = "{draft.left_foot}"',
         f'right_foot = "{draft.right_foot}"',
-        "# The sole: the foot geometry within 6 mm of its lowest point, in the foot frame; the origin",
-        "# is the centre of its bounding rectangle, at ground level.",
+        "# The sole: the largest rectangle inside the foot geometry within 6 mm of its lowest point;",
+        "# the offset is its centre at ground level, in the foot frame.",
         f"left_sole_offset_m = {list(draft.sole_offset_m['left'])}",
         f"right_sole_offset_m = {list(draft.sole_offset_m['right'])}",
     ]
@@ -405,7 +478,7 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
         f"sole_width_m = {draft.sole_width_m}",
     ]
     if draft.sole_outline_m:
-        lines += ["# The sole points do not fill the rectangle: their convex hull bears the load.",
+        lines += ["# The foot touches the floor beyond the rectangle: the convex hull of its lowest points.",
                   f"sole_outline_m = {[list(p) for p in draft.sole_outline_m]}"]
     lines += ["# The joints from the base to each foot.", "leg_joints = ["]
     lines += [f'  "{j}",' for j in draft.leg_joints] + ["]", ""]
