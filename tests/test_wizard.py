@@ -136,3 +136,18 @@ def test_a_tilted_sole_or_a_model_without_floor_exits_2_naming_the_file(tmp_path
     assert main(["run", "--sim", "mujoco", "--robot", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(path) in err and message in err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["unitree_g1", "berkeley_humanoid", "booster_t1", "apptronik_apollo"])
+def test_the_drafts_of_the_wheels_humanoids_stand_and_walk_10_s(tmp_path, model):
+    """The unchanged draft of each six-joint-leg humanoid of the pinned model package stands 5 s
+    and walks 10 s at 0.1 m/s with no infeasible QP (``ismpc robot check``'s criterion)."""
+    from robust_ismpc.sim.check import check_robot
+
+    draft = draft_robot(_menagerie(model))
+    path = tmp_path / f"{model}.toml"
+    path.write_text(robot_file_text(draft, path))
+    report, _ = check_robot(str(path), walk_s=10.0, vx_mps=0.1)
+    assert report["passed"], report
+    assert report["walk"]["distance_m"] > 0.8
