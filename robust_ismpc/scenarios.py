@@ -454,26 +454,24 @@ def right_arm_end(robot_spec) -> str:
     """
     import mujoco
 
+    from .robots.spec import frame_body, frame_id
     from .sim.mujoco_robot import standing_state
 
     model = robot_spec.load_model()
     data = mujoco.MjData(model)
     standing_state(robot_spec, model, data)
     mujoco.mj_kinematics(model, data)
-    root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, robot_spec.root_body)
+    root = frame_id(model, "body", robot_spec.root_body, "root")
     legs = set()
-    for frame in (robot_spec.left_foot, robot_spec.right_foot):
-        if robot_spec.foot_frame_type == "site":
-            body = int(model.site_bodyid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, frame)])
-        else:
-            body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, frame)
+    for name in (robot_spec.left_foot, robot_spec.right_foot):
+        body = frame_body(model, robot_spec.foot_frame_type, frame_id(model, robot_spec.foot_frame_type, name, "foot"))
         while body > 0:
             legs.add(body)
             body = int(model.body_parentid[body])
     parents = set(int(p) for p in model.body_parentid[1:])
-    frame = data.xmat[root].reshape(3, 3)
-    ends = [(float((frame.T @ (data.xpos[b] - data.xpos[root]))[2]), b) for b in range(1, model.nbody)
-            if b not in parents and b not in legs and (frame.T @ (data.xpos[b] - data.xpos[root]))[1] < -0.02]
+    in_base = (data.xpos - data.xpos[root]) @ data.xmat[root].reshape(3, 3)  # (nbody, 3), base frame
+    ends = [(float(in_base[b, 2]), b) for b in range(1, model.nbody)
+            if b not in parents and b not in legs and in_base[b, 1] < -0.02]
     if not ends:
         raise ParameterError(f"{robot_spec.name}: no right arm found for the bag (a childless body right of the base)")
     return model.body(max(ends)[1]).name
