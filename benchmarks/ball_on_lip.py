@@ -22,9 +22,9 @@ import logging
 from dataclasses import replace
 from pathlib import Path
 
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.runner import run
-from robust_ismpc.scenarios import realise
+from robust_ismpc.experiments.scenarios import realise
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.run import run
 
 HIT_DURATION_S = 0.01
 

@@ -16,10 +16,11 @@ import time
 
 import numpy as np
 
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.params import robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
-from robust_ismpc.runner import RunSpec, run
+from robust_ismpc.core.params import robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.run import run
+from robust_ismpc.runs.spec import RunSpec
 
 COMBOS = [(), ("observer",), ("restriction",), ("timing",), ("observer", "timing"), ("observer", "restriction", "timing")]
 

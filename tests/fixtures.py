@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from robust_ismpc.controller import IsmpcController
-from robust_ismpc.params import MpcParams, RobotParams, robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.core.params import MpcParams, RobotParams, robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
 
 
 def straight_plan(robot: RobotParams, vx: float = 0.2, vy: float = 0.0, omega: float = 0.0, duration_s: float = 12.0):

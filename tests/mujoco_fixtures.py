@@ -7,14 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from robust_ismpc.reference import GaitReference, Measurement
+from robust_ismpc.core.reference import GaitReference, Measurement
 
 mujoco = pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 
-from robust_ismpc.robots import RobotSpec, load_robot  # noqa: E402
-from robust_ismpc.sim.check import still_reference as double_support_reference  # noqa: E402
-from robust_ismpc.sim.mujoco_loop import initial_state  # noqa: E402
+from robust_ismpc.experiments.robot_check import still_reference as double_support_reference  # noqa: E402
+from robust_ismpc.robots import RobotSpec
+from robust_ismpc.sim.loop import initial_state  # noqa: E402
+from robust_ismpc.sim.model import load_robot  # noqa: E402
 
 ROBOT_NAMES = ("g1", "op3")
 
@@ -91,7 +92,7 @@ class SteppedRun:
 def step_simulation(sim, controller, duration_s: float, recorder=None, stop_on_fall: bool = True) -> SteppedRun:
     """Step ``sim`` with ``controller`` (``step(t_s, measurement) -> GaitReference``) for
     ``duration_s``, one control period at a time, as the product loop does."""
-    from robust_ismpc.sim.mujoco_robot import distance_outside
+    from robust_ismpc.sim.robot import distance_outside
 
     period = sim.settings.control_period_s
     rows = {k: [] for k in ("com", "ref", "left", "right", "force", "outside")}

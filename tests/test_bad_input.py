@@ -5,14 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from robust_ismpc.controller import IsmpcController
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.control.robust import RobustIsmpcController, RobustParams
+from robust_ismpc.core.params import MpcParams, robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+from robust_ismpc.core.reference import Measurement
 from robust_ismpc.exceptions import ControllerFailure, IsmpcError, ParameterError
-from robust_ismpc.forces import ForceWindow, parse_force, parse_push
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
-from robust_ismpc.reference import Measurement
-from robust_ismpc.robust import RobustIsmpcController, RobustParams
-from robust_ismpc.runner import RunSpec
+from robust_ismpc.runs.forces import ForceWindow, parse_force, parse_push
+from robust_ismpc.runs.spec import RunSpec
 
 G1 = robot_params("g1")
 

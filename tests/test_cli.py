@@ -94,7 +94,7 @@ def test_bench_writes_json(tmp_path):
 def test_calibrate_writes_the_fit_and_its_figure(tmp_path, capsys):
     """`ismpc calibrate` fits κ on G1 (close to the value in g1.toml) and writes JSON and a plot."""
     pytest.importorskip("mujoco")
-    from robust_ismpc.robots import load_robot
+    from robust_ismpc.sim.model import load_robot
 
     assert main(["calibrate", "--robot", "g1", "--duration", "5", "--out", str(tmp_path)]) == 0
     data = json.loads((tmp_path / "calibration.json").read_text())

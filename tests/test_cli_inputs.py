@@ -73,9 +73,9 @@ def test_read_only_out_is_refused(tmp_path, capsys):
 
 
 def _bad_robot(tmp_path: Path, old: str, new: str) -> Path:
-    from robust_ismpc.robots.spec import _BUILTIN_DIR
+    from robust_ismpc.robots.robot_file import BUILTIN_DIR
 
-    text = (_BUILTIN_DIR / "g1.toml").read_text()
+    text = (BUILTIN_DIR / "g1.toml").read_text()
     assert old in text
     path = tmp_path / "mybot.toml"
     path.write_text(text.replace(old, new))

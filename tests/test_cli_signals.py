@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from robust_ismpc.cli import main
-from robust_ismpc.sweep import COLUMNS, read_runs
+from robust_ismpc.experiments.sweep import COLUMNS, read_runs
 
 ENV = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 

@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.planner import WalkCommand
-from robust_ismpc.runner import RunSpec, run
+from robust_ismpc.core.planner import WalkCommand
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.run import run
+from robust_ismpc.runs.spec import RunSpec
 
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from fixtures import straight_plan, walking_controller
 
-from robust_ismpc.controller import IsmpcController
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.control.robust import RobustIsmpcController
+from robust_ismpc.core.params import robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+from robust_ismpc.core.reference import Measurement
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.params import robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
-from robust_ismpc.reference import Measurement
-from robust_ismpc.robust import RobustIsmpcController
 
 G1 = robot_params("g1")
 BAD = [math.nan, math.inf, -math.inf]

@@ -5,10 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robust_ismpc.disturbance_filters import MidrangeFilter, MidrangeParams, PersistenceFilter
-from robust_ismpc.estimator import DisturbanceEstimator, EstimatorParams, StateEstimator, steady_state_gain
+from robust_ismpc.core.lip import discretise
+from robust_ismpc.estimation.estimator import (
+    DisturbanceEstimator,
+    EstimatorParams,
+    StateEstimator,
+    steady_state_gain,
+)
+from robust_ismpc.estimation.filters import MidrangeFilter, MidrangeParams, PersistenceFilter
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.lip import discretise
 
 ETA = np.sqrt(9.81 / 0.71)
 DT = 0.01

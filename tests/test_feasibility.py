@@ -1,4 +1,4 @@
-"""Tests of robust_ismpc.feasibility: closed-form feasibility bounds, LP check, affine estimate."""
+"""Tests of robust_ismpc.core.feasibility: closed-form feasibility bounds, LP check, affine estimate."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.feasibility import (
+from robust_ismpc.core.feasibility import (
     AxisFeasibilityInputs,
     affine_inner_estimate,
     feasibility_bounds,
@@ -19,7 +18,8 @@ from robust_ismpc.feasibility import (
     straight_gait_inputs,
     zmp_row_weights,
 )
-from robust_ismpc.params import GRAVITY_MPS2
+from robust_ismpc.core.params import GRAVITY_MPS2
+from robust_ismpc.exceptions import ParameterError
 
 DELTA = 0.01
 

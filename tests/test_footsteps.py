@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from fixtures import straight_plan
 
+from robust_ismpc.core.footsteps import LEFT, RIGHT
+from robust_ismpc.core.params import robot_params
 from robust_ismpc.exceptions import ParameterError, PlanError
-from robust_ismpc.footsteps import LEFT, RIGHT
-from robust_ismpc.params import robot_params
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""Feasibility governor of the mid-range disturbance (robust_ismpc.governor and its use)."""
+"""Feasibility governor of the mid-range disturbance (robust_ismpc.estimation.governor and its use)."""
 
 
 import math
@@ -6,13 +6,14 @@ import math
 import numpy as np
 import pytest
 
+from robust_ismpc.control.modules import MODULES
+from robust_ismpc.control.robust import RobustIsmpcController, RobustParams
+from robust_ismpc.core.params import MpcParams, robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+from robust_ismpc.estimation.governor import admissible_disturbance, governed_disturbance
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.governor import admissible_disturbance, governed_disturbance
-from robust_ismpc.lip_sim import run_lip
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
-from robust_ismpc.robust import MODULES, RobustIsmpcController, RobustParams
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.lip import run_lip
 
 ROBOT = robot_params("g1")
 PUSH_T = 4.25  # 0.05 s into the single support of step 5

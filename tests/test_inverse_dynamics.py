@@ -1,4 +1,4 @@
-"""Torque control through the inverse-dynamics QP (robust_ismpc.sim.inverse_dynamics)."""
+"""Torque control through the inverse-dynamics QP (robust_ismpc.sim.whole_body.inverse_dynamics)."""
 # ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 from mujoco_fixtures import ComShiftController, g1_spec, step_simulation  # noqa: F401  (fixtures)
 
+from robust_ismpc.core.planner import WalkCommand
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.planner import WalkCommand
-from robust_ismpc.runner import RunSpec, run
-from robust_ismpc.sim import LoopSettings, MujocoSimulation, TorqueControlSettings
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.run import run
+from robust_ismpc.runs.spec import RunSpec
+from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation
+from robust_ismpc.sim.model import compile_model
+from robust_ismpc.sim.whole_body.inverse_dynamics import TorqueControlSettings
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -117,14 +120,14 @@ def test_torque_limits_come_from_every_actuator_kind():
     """H1's motors are limited by their control range (gear and gain 1), OP3's servos by their
     force range, G1's by its joints' actuator force range; a servo's control range (an angle) is
     not a torque limit."""
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.sim.inverse_dynamics import actuator_torque_limits_nm
+    from robust_ismpc.sim.model import load_robot
+    from robust_ismpc.sim.whole_body.inverse_dynamics import actuator_torque_limits_nm
 
     h1 = _menagerie_model("unitree_h1")
     np.testing.assert_allclose(actuator_torque_limits_nm(h1), h1.actuator_ctrlrange)
-    op3 = load_robot("op3").load_model()
+    op3 = compile_model(load_robot("op3"))
     np.testing.assert_allclose(actuator_torque_limits_nm(op3), op3.actuator_forcerange)
-    g1 = load_robot("g1").load_model()
+    g1 = compile_model(load_robot("g1"))
     np.testing.assert_allclose(actuator_torque_limits_nm(g1), g1.jnt_actfrcrange[g1.actuator_trnid[:, 0]])
 
 
@@ -133,11 +136,11 @@ def test_torque_motors_keep_the_limits_of_the_actuators_they_replace():
     range) and on OP3 (servos with a force range) is clipped to each actuator's limit."""
     import copy
 
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.sim.inverse_dynamics import actuator_torque_limits_nm
-    from robust_ismpc.sim.mujoco_loop import _make_torque_motors
+    from robust_ismpc.sim.loop import _make_torque_motors
+    from robust_ismpc.sim.model import load_robot
+    from robust_ismpc.sim.whole_body.inverse_dynamics import actuator_torque_limits_nm
 
-    for model in (_menagerie_model("unitree_h1"), load_robot("op3").load_model()):
+    for model in (_menagerie_model("unitree_h1"), compile_model(load_robot("op3"))):
         model = copy.deepcopy(model)
         limits = actuator_torque_limits_nm(model)
         _make_torque_motors(model)
@@ -152,8 +155,8 @@ def test_soft_servos_are_reported_for_servo_playback():
     the mass they would not, and the warning names the limit and the cure."""
     from dataclasses import replace
 
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.sim.mujoco_loop import soft_servo_warning
+    from robust_ismpc.sim.loop import soft_servo_warning
+    from robust_ismpc.sim.model import load_robot
 
     op3 = load_robot("op3")
     assert soft_servo_warning(op3) is None

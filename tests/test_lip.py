@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
+from robust_ismpc.core.lip import continuous_matrices, dcm, discretise, step_state
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.lip import continuous_matrices, dcm, discretise, step_state
 
 
 @pytest.mark.parametrize("eta,dt", [(3.5, 0.01), (6.5, 0.05), (2.4, 0.1)])

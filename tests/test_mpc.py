@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from fixtures import straight_plan
 
-from robust_ismpc.controller import IsmpcController
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.core.mpc import IsmpcQp, MpcState
+from robust_ismpc.core.params import MpcParams, robot_params
+from robust_ismpc.core.qp import DaqpSolver, QpsolversSolver
 from robust_ismpc.exceptions import InfeasibleMpc
-from robust_ismpc.mpc import IsmpcQp, MpcState
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.qp import DaqpSolver, QpsolversSolver
 
 
 @pytest.fixture

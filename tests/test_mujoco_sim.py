@@ -20,25 +20,19 @@ from mujoco_fixtures import (  # noqa: F401  (fixtures)
 
 from robust_ismpc.exceptions import ModelError, ParameterError
 from robust_ismpc.robots import RobotSpec
-from robust_ismpc.sim import (
+from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation
+from robust_ismpc.sim.model import compile_model
+from robust_ismpc.sim.robot import (
     FallCriteria,
-    Force,
-    ForceSchedule,
-    Impulse,
-    LoopSettings,
     MujocoRobot,
-    MujocoSimulation,
-    Payload,
     SolePose,
-    SwingingBall,
-    VideoRecorder,
-    VideoSettings,
-    build_scene,
     convex_hull,
     distance_outside,
     sole_corners,
     standing_state,
 )
+from robust_ismpc.sim.scene import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
+from robust_ismpc.sim.video import VideoRecorder, VideoSettings
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -80,7 +74,7 @@ def test_cop_equals_com_projection_when_still(robot_spec: RobotSpec) -> None:
 def test_com_velocity_and_angular_momentum_match_mujoco(g1_spec: RobotSpec) -> None:
     """At a random velocity, the CoM, its velocity (from body velocities) and the robot's angular
     momentum about its CoM equal MuJoCo's subtree CoM, linear momentum / mass and angular momentum."""
-    model = g1_spec.load_model()
+    model = compile_model(g1_spec)
     data = mujoco.MjData(model)
     standing_state(g1_spec, model, data)
     data.qvel[:] = np.random.default_rng(0).normal(scale=0.3, size=model.nv)
@@ -98,7 +92,7 @@ def _measured_disturbance(spec: RobotSpec, controller, seconds: float, force_n: 
     after 0.5 s, the x disturbance an LIP reads from the raw CoP, ẍ - η² (x_c - x_z), and the
     one measured from the period-mean contact force and external moment
     (:class:`DisturbanceEstimator`, unfiltered) [m/s²]. ``force_n`` pushes the torso body along x."""
-    from robust_ismpc.estimator import DisturbanceEstimator
+    from robust_ismpc.estimation.estimator import DisturbanceEstimator
 
     forces = [Force(force_n, 0.0, 0.0, math.inf)] if force_n else []
     sim = MujocoSimulation(spec, forces)
@@ -140,7 +134,7 @@ def test_the_measured_disturbance_is_the_push_mapped_onto_the_lip(g1_spec: Robot
 
 def test_no_contact_gives_no_zmp(op3_spec: RobotSpec) -> None:
     """A robot lifted off the floor measures no ZMP and no foot in contact."""
-    model = op3_spec.load_model()
+    model = compile_model(op3_spec)
     data = mujoco.MjData(model)
     standing_state(op3_spec, model, data)
     data.qpos[2] += 0.1
@@ -152,7 +146,7 @@ def test_no_contact_gives_no_zmp(op3_spec: RobotSpec) -> None:
 # ------------------------------------------------------------------ disturbances
 def test_force_accelerates_com_by_f_over_m(g1_spec: RobotSpec) -> None:
     """Without gravity, a force on the pelvis changes the CoM velocity by F t / m."""
-    model = copy.deepcopy(g1_spec.load_model())
+    model = copy.deepcopy(compile_model(g1_spec))
     model.opt.gravity[:] = 0.0
     data = mujoco.MjData(model)
     standing_state(g1_spec, model, data)
@@ -182,7 +176,7 @@ def test_impulse_is_windowed_force() -> None:
 def test_unknown_force_body_raises(op3_spec: RobotSpec) -> None:
     """A force on a body absent from the model raises ModelError naming it."""
     with pytest.raises(ModelError, match="wing"):
-        ForceSchedule(op3_spec.load_model(), [Force(1.0, 0.0, body="wing")], "body_link")
+        ForceSchedule(compile_model(op3_spec), [Force(1.0, 0.0, body="wing")], "body_link")
 
 
 def test_payload_exists_swings_and_is_not_robot_mass(g1_spec: RobotSpec) -> None:
@@ -205,7 +199,7 @@ def test_swinging_ball_swings_from_release_angle(op3_spec: RobotSpec) -> None:
                         release_angle_rad=0.6)
     model = build_scene(op3_spec, [ball])
     data = mujoco.MjData(model)
-    from robust_ismpc.sim.disturbances import set_scene_initial_state
+    from robust_ismpc.sim.scene import set_scene_initial_state
 
     standing_state(op3_spec, model, data)
     set_scene_initial_state(model, data, [ball])
@@ -264,7 +258,7 @@ def test_control_period_must_match_timestep(op3_spec: RobotSpec) -> None:
 
 def test_foot_friction_setting(g1_spec: RobotSpec) -> None:
     """LoopSettings.foot_friction sets the sliding friction of exactly the foot contact geoms, on a copy of the model."""
-    cached = g1_spec.load_model()
+    cached = compile_model(g1_spec)
     before = cached.geom_friction.copy()
     sim = MujocoSimulation(g1_spec, settings=LoopSettings(foot_friction=1.3))
     feet = sim.robot.foot_geom_ids()
@@ -279,7 +273,7 @@ def test_foot_friction_setting(g1_spec: RobotSpec) -> None:
 
 # ------------------------------------------------------------------ video
 def _offscreen_gl_works() -> bool:
-    from robust_ismpc.sim import configure_offscreen_gl
+    from robust_ismpc.sim.video import configure_offscreen_gl
 
     configure_offscreen_gl()
     try:
@@ -315,7 +309,7 @@ def test_video_is_written(op3_spec: RobotSpec, tmp_path) -> None:
 ])
 def test_bad_walk_settings_raise_parameter_error(kwargs, message):
     from robust_ismpc.exceptions import ParameterError
-    from robust_ismpc.sim.run import WalkSettings
+    from robust_ismpc.runs.mujoco import WalkSettings
 
     with pytest.raises(ParameterError, match=message):
         WalkSettings(**kwargs)

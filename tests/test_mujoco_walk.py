@@ -1,4 +1,4 @@
-"""IS-MPC walking the full robots in MuJoCo through the run API (robust_ismpc.sim.run)."""
+"""IS-MPC walking the full robots in MuJoCo through the run API (robust_ismpc.runs.mujoco)."""
 # ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
@@ -12,11 +12,12 @@ import pytest
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 
+from robust_ismpc.core.planner import WalkCommand  # noqa: E402
 from robust_ismpc.exceptions import ParameterError  # noqa: E402
-from robust_ismpc.forces import ForceWindow  # noqa: E402
-from robust_ismpc.planner import WalkCommand  # noqa: E402
-from robust_ismpc.runner import RunSpec, run  # noqa: E402
-from robust_ismpc.sim.run import COP_TOLERANCE_M, run_mujoco_spec  # noqa: E402
+from robust_ismpc.runs.forces import ForceWindow  # noqa: E402
+from robust_ismpc.runs.mujoco import COP_TOLERANCE_M, run_mujoco_spec  # noqa: E402
+from robust_ismpc.runs.run import run  # noqa: E402
+from robust_ismpc.runs.spec import RunSpec
 
 ROBOTS = ("g1", "op3")
 #: Cruise speeds [m/s] (docs/robots.md, "Walking in MuJoCo").
@@ -122,8 +123,8 @@ def test_builtins_drafted_by_the_wizard_walk_30_s(robot, name, command, modules)
 def test_inverse_dynamics_feedforward_at_rest_is_static() -> None:
     """At rest the inverse-dynamics feedforward equals the static torques, and its contact CoP is the
     CoM projection; a swing-leg acceleration moves that CoP (the effect the feedforward supplies)."""
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.wbik import WholeBodyIk
+    from robust_ismpc.sim.model import load_robot
+    from robust_ismpc.sim.whole_body.ik import WholeBodyIk
 
     ik = WholeBodyIk(load_robot("g1"))
     nv = ik.model.nv
@@ -139,8 +140,8 @@ def test_inverse_dynamics_feedforward_at_rest_is_static() -> None:
 
 def test_dynamic_feedforward_adds_servo_damping_term() -> None:
     """With dynamic_feedforward a position servo's target carries + kd q̇_ref / kp."""
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.sim.mujoco_loop import LoopSettings, MujocoSimulation
+    from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation
+    from robust_ismpc.sim.model import load_robot
 
     sim = MujocoSimulation(load_robot("g1"), settings=LoopSettings(dynamic_feedforward=True))
     act = sim.actuators
@@ -155,9 +156,9 @@ def _gl_available() -> str | None:
     try:
         import mujoco
 
-        from robust_ismpc.robots import load_robot
+        from robust_ismpc.sim.model import compile_model, load_robot
 
-        model = load_robot("op3").load_model()
+        model = compile_model(load_robot("op3"))
         renderer = mujoco.Renderer(model, height=48, width=64)
         renderer.close()
     except Exception as exc:  # noqa: BLE001  (any GL failure means: skip)

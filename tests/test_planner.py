@@ -5,9 +5,9 @@ import pytest
 import qpsolvers
 from fixtures import straight_plan
 
+from robust_ismpc.core.params import robot_params
+from robust_ismpc.core.planner import SOLE_CLEARANCE_M, WalkCommand, kinematic_box, plan_footsteps, rotation
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.params import robot_params
-from robust_ismpc.planner import SOLE_CLEARANCE_M, WalkCommand, kinematic_box, plan_footsteps, rotation
 
 
 @pytest.mark.parametrize("cmd", [(0.3, 0.0, 0.0), (0.0, 0.05, 0.0), (0.1, 0.0, 0.4), (-0.2, 0.0, 0.0)])

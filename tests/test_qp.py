@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from fixtures import walking_controller
 
+from robust_ismpc.core.qp import DaqpSolver, QpProblem, QpsolversSolver, make_solver
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.qp import DaqpSolver, QpProblem, QpsolversSolver, make_solver
 
 
 class _Checked(DaqpSolver):

@@ -1,4 +1,4 @@
-"""Tests of robust_ismpc.restriction: formulas, limits, and recursive feasibility under bounded disturbances."""
+"""Tests of robust_ismpc.core.restriction: formulas, limits, and recursive feasibility under bounded disturbances."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.feasibility import AxisFeasibilityInputs, build_axis_program, feasibility_bounds_at
-from robust_ismpc.params import GRAVITY_MPS2
-from robust_ismpc.restriction import (
+from robust_ismpc.core.feasibility import AxisFeasibilityInputs, build_axis_program, feasibility_bounds_at
+from robust_ismpc.core.params import GRAVITY_MPS2
+from robust_ismpc.core.restriction import (
     checked_restriction_rate,
     deviation_effect,
     max_tolerable_deviation,
@@ -19,6 +18,7 @@ from robust_ismpc.restriction import (
     restriction_profile,
     restriction_rate,
 )
+from robust_ismpc.exceptions import ParameterError
 
 
 def _eta(h: float) -> float:

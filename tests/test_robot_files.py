@@ -10,7 +10,8 @@ from robust_ismpc.cli import main
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 
-from robust_ismpc.robots import BUILTIN_ROBOTS, load_robot  # noqa: E402
+from robust_ismpc.robots import BUILTIN_ROBOTS
+from robust_ismpc.sim.model import load_robot  # noqa: E402
 
 BUILTIN_DIR = Path(__file__).resolve().parents[1] / "robust_ismpc" / "robots"
 

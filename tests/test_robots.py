@@ -10,8 +10,9 @@ import pytest
 from mujoco_fixtures import robot_spec  # noqa: F401  (fixture; skips without mujoco)
 
 from robust_ismpc.exceptions import ModelError, ParameterError
-from robust_ismpc.robots import BUILTIN_ROBOTS, RobotSpec, load_robot
-from robust_ismpc.robots.spec import _BUILTIN_DIR
+from robust_ismpc.robots import BUILTIN_ROBOTS, RobotSpec
+from robust_ismpc.robots.robot_file import BUILTIN_DIR
+from robust_ismpc.sim.model import load_robot
 
 EXPECTED_MASS_KG = {"g1": (33.0, 0.15), "op3": (3.0, 0.20)}
 EXPECTED_COM_HEIGHT_M = {"g1": (0.55, 0.62), "op3": (0.20, 0.26)}
@@ -20,7 +21,7 @@ EXPECTED_COM_HEIGHT_M = {"g1": (0.55, 0.62), "op3": (0.20, 0.26)}
 def _user_toml(tmp_path: Path, **changes: str) -> Path:
     """Copy of the built-in g1 description with an absolute model path and some lines replaced."""
     spec = load_robot("g1")
-    text = (_BUILTIN_DIR / "g1.toml").read_text()
+    text = (BUILTIN_DIR / "g1.toml").read_text()
     lines = []
     for line in text.splitlines():
         key = line.split("=")[0].strip()
@@ -64,9 +65,10 @@ def test_standing_qpos_puts_soles_on_floor(robot_spec: RobotSpec) -> None:
     """In the standing configuration both soles are flat at z = 0 (within 10 µm)."""
     import mujoco
 
-    from robust_ismpc.sim import MujocoRobot, standing_state
+    from robust_ismpc.sim.model import compile_model
+    from robust_ismpc.sim.robot import MujocoRobot, standing_state
 
-    model = robot_spec.load_model()
+    model = compile_model(robot_spec)
     data = mujoco.MjData(model)
     standing_state(robot_spec, model, data)
     robot = MujocoRobot(robot_spec, model, data)

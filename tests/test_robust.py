@@ -6,17 +6,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from robust_ismpc.controller import IsmpcController
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.control.modules import MODULES
+from robust_ismpc.control.robust import RobustIsmpcController
+from robust_ismpc.core.lip import discretise
+from robust_ismpc.core.params import MpcParams, robot_params
+from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+from robust_ismpc.core.reference import Measurement
+from robust_ismpc.core.restriction import max_tolerable_deviation
 from robust_ismpc.exceptions import ControllerFailure, ParameterError
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.lip import discretise
-from robust_ismpc.lip_sim import run_lip
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.planner import WalkCommand, plan_footsteps
-from robust_ismpc.reference import Measurement
-from robust_ismpc.restriction import max_tolerable_deviation
-from robust_ismpc.robust import MODULES, RobustIsmpcController
-from robust_ismpc.runner import RunSpec, run
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.lip import run_lip
+from robust_ismpc.runs.run import run
+from robust_ismpc.runs.spec import RunSpec
 
 ROBOT = robot_params("g1")
 
@@ -221,7 +223,7 @@ def test_constant_sagittal_force_plus_coronal_impulse(impulse_t):
 
 def test_cached_feasibility_bounds_equal_a_fresh_computation():
     """The per-step cached bounds plus the ZMP term equal bounds computed from scratch."""
-    from robust_ismpc.feasibility import feasibility_bounds_at
+    from robust_ismpc.core.feasibility import feasibility_bounds_at
 
     controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",))
     left = np.array([0.0, 0.5 * ROBOT.foot_spacing_m])

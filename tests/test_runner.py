@@ -3,9 +3,11 @@
 import numpy as np
 import pytest
 
-from robust_ismpc.forces import ForceWindow
-from robust_ismpc.planner import WalkCommand
-from robust_ismpc.runner import RunSpec, parse_modules, run
+from robust_ismpc.control.modules import parse_modules
+from robust_ismpc.core.planner import WalkCommand
+from robust_ismpc.runs.forces import ForceWindow
+from robust_ismpc.runs.run import run
+from robust_ismpc.runs.spec import RunSpec
 
 TIMING_KEYS = {"mpc_solve_ms", "mpc_build_ms", "cycle_ms", "wall_time_s", "realtime_factor"}
 
@@ -54,7 +56,7 @@ def test_ctrl_c_keeps_what_ran(tmp_path, monkeypatch):
     """A KeyboardInterrupt mid-run ends the run as 'interrupted' (not a fall) and the CLI still
     writes summary.json, gait.png and trace.npz for the part that ran, then exits 130."""
     from robust_ismpc import cli
-    from robust_ismpc.controller import IsmpcController
+    from robust_ismpc.control.controller import IsmpcController
 
     original = IsmpcController.step
 

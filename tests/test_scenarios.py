@@ -10,9 +10,9 @@ import pytest
 pytest.importorskip("mujoco")
 
 from robust_ismpc.cli import main  # noqa: E402
+from robust_ismpc.control.modules import MODULES  # noqa: E402
 from robust_ismpc.exceptions import ParameterError  # noqa: E402
-from robust_ismpc.runner import MODULES  # noqa: E402
-from robust_ismpc.scenarios import (  # noqa: E402
+from robust_ismpc.experiments.scenarios import (
     SCENARIOS,
     BallSpec,
     ScaledForce,
@@ -92,9 +92,9 @@ def test_pendulum_swing_time_matches_small_angle_limit() -> None:
 
 def _sim_with(items, duration_s: float, walk: bool):
     """Run op3 (standing still or walking forward 0.15 m/s) with scene items; return the RunResult."""
-    from robust_ismpc.planner import WalkCommand
-    from robust_ismpc.runner import RunSpec
-    from robust_ismpc.sim.run import run_mujoco_spec
+    from robust_ismpc.core.planner import WalkCommand
+    from robust_ismpc.runs.mujoco import run_mujoco_spec
+    from robust_ismpc.runs.spec import RunSpec
 
     spec = RunSpec(robot="op3", sim="mujoco", command=WalkCommand(0.15 if walk else 0.0), duration_s=duration_s)
     return run_mujoco_spec(spec, scene_items=items)
@@ -104,8 +104,8 @@ def test_bag_body_exists_and_swings() -> None:
     """The bag is a real body on a ball joint under the right elbow, and it swings while OP3 walks."""
     import mujoco
 
-    from robust_ismpc.robots import load_robot
-    from robust_ismpc.sim.disturbances import build_scene, payload_body_names
+    from robust_ismpc.sim.model import load_robot
+    from robust_ismpc.sim.scene import build_scene, payload_body_names
 
     run = realise("paper-bag")
     model = build_scene(load_robot("op3"), run.scene_items)
@@ -230,7 +230,7 @@ def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
 
 def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:
     """Figure markers: the planned hit for paper-ball; the constant force then the push for paper-push."""
-    from robust_ismpc.scenarios import disturbance_events
+    from robust_ismpc.experiments.scenarios import disturbance_events
 
     ball = realise("paper-ball")
     assert disturbance_events(ball) == [("ball hit (planned)", ball.details["ball"]["hit_s"])]

@@ -3,7 +3,7 @@
 import pytest
 
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.soak import SoakSpec, random_pushes, run_soak
+from robust_ismpc.experiments.soak import SoakSpec, random_pushes, run_soak
 
 
 def test_pushes_replay_from_seed():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from robust_ismpc.stability import stability_coefficients
+from robust_ismpc.core.stability import stability_coefficients
 
 ETA, DT, C, P = 3.6, 0.05, 12, 30
 

@@ -1,4 +1,4 @@
-"""Tests of robust_ismpc.step_timing: QP-STA closed form, rounding, trigger."""
+"""Tests of robust_ismpc.control.step_timing: QP-STA closed form, rounding, trigger."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from robust_ismpc.control.step_timing import StaParams, should_adapt, solve_sta, solve_sta_qp, timing_interval
+from robust_ismpc.core.feasibility import AffineFeasibility, feasibility_bounds_at, straight_gait_inputs
+from robust_ismpc.core.params import GRAVITY_MPS2
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.feasibility import AffineFeasibility, feasibility_bounds_at, straight_gait_inputs
-from robust_ismpc.params import GRAVITY_MPS2
-from robust_ismpc.step_timing import StaParams, should_adapt, solve_sta, solve_sta_qp, timing_interval
 
 DELTA = 0.01
 T_SS = 0.3

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from robust_ismpc import sweep
 from robust_ismpc.cli import main
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.sweep import (
+from robust_ismpc.experiments import sweep
+from robust_ismpc.experiments.sweep import (
     COLUMNS,
     Bisection,
     SweepConfig,

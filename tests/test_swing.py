@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from fixtures import walking_controller
 
-from robust_ismpc.swing import SwingState, advance_swing, quintic_step
+from robust_ismpc.core.swing import SwingState, advance_swing, quintic_step
 
 DT = 0.01
 

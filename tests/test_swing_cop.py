@@ -1,4 +1,4 @@
-"""The swing leg's CoP shift over the MPC horizon (robust_ismpc.swing_cop) and its ZMP constraint."""
+"""The swing leg's CoP shift over the MPC horizon (robust_ismpc.core.swing_cop) and its ZMP constraint."""
 
 from dataclasses import replace
 
@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from fixtures import straight_plan
 
-from robust_ismpc.controller import IsmpcController
+from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.control.robust import RobustIsmpcController
+from robust_ismpc.core.footsteps import LEFT
+from robust_ismpc.core.mpc import IsmpcQp, MpcState
+from robust_ismpc.core.params import MpcParams, robot_params
+from robust_ismpc.core.swing import SwingState, quintic_step
+from robust_ismpc.core.swing_cop import quintic_acceleration, swing_acceleration, swing_cop_offset
 from robust_ismpc.exceptions import InfeasibleMpc, ParameterError
-from robust_ismpc.footsteps import LEFT
-from robust_ismpc.mpc import IsmpcQp, MpcState
-from robust_ismpc.params import MpcParams, robot_params
-from robust_ismpc.robust import RobustIsmpcController
-from robust_ismpc.swing import SwingState, quintic_step
-from robust_ismpc.swing_cop import quintic_acceleration, swing_acceleration, swing_cop_offset
 
 KAPPA_S2 = 0.006  # G1's measured value (docs/robots.md)
 
@@ -191,9 +191,9 @@ def test_g1s_swing_cop_gain_is_a_robot_constant():
     on the walking speed (the value in g1.toml)."""
     pytest.importorskip("mujoco")
     pytest.importorskip("mink")
-    from robust_ismpc.planner import WalkCommand
-    from robust_ismpc.robots import load_robot
+    from robust_ismpc.core.planner import WalkCommand
     from robust_ismpc.sim.calibrate import fit_swing_cop_gain
+    from robust_ismpc.sim.model import load_robot
 
     fast = fit_swing_cop_gain("g1", WalkCommand(0.2))
     slow = fit_swing_cop_gain("g1", WalkCommand(0.1))
@@ -207,7 +207,7 @@ def test_calibration_refuses_a_walk_without_forward_swings():
     """Stepping in place gives no forward swing acceleration to fit κ on: a clear error, no κ."""
     pytest.importorskip("mujoco")
     pytest.importorskip("mink")
-    from robust_ismpc.planner import WalkCommand
+    from robust_ismpc.core.planner import WalkCommand
     from robust_ismpc.sim.calibrate import fit_swing_cop_gain
 
     with pytest.raises(ParameterError, match="no forward swing motion"):

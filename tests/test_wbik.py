@@ -1,4 +1,4 @@
-"""Tests of the whole-body IK (robust_ismpc.wbik)."""
+"""Tests of the whole-body IK (robust_ismpc.sim.whole_body.ik)."""
 # ruff: noqa: F811  (pytest fixtures imported from mujoco_fixtures are redefined as arguments)
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from mujoco_fixtures import double_support_reference, g1_spec, robot_spec  # noq
 
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.robots import RobotSpec
-from robust_ismpc.sim import initial_state
-from robust_ismpc.wbik import ActuatorMap, IkSettings, WholeBodyIk
+from robust_ismpc.sim.loop import initial_state
+from robust_ismpc.sim.whole_body.ik import ActuatorMap, IkSettings, WholeBodyIk
 
 
 def _com_errors(spec: RobotSpec, settings: IkSettings, n_steps: int) -> tuple[list[float], WholeBodyIk]:

@@ -15,9 +15,9 @@ from robust_ismpc.exceptions import ModelError
 pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 
-from robust_ismpc.robots import load_robot  # noqa: E402
-from robust_ismpc.robots.spec import _BUILTIN_DIR  # noqa: E402
-from robust_ismpc.robots.wizard import draft_robot, inscribed_rectangle, robot_file_text  # noqa: E402
+from robust_ismpc.robots.robot_file import BUILTIN_DIR  # noqa: E402
+from robust_ismpc.sim.model import load_robot  # noqa: E402
+from robust_ismpc.sim.wizard import draft_robot, inscribed_rectangle, robot_file_text  # noqa: E402
 
 
 def _menagerie(name: str, scene: str = "scene.xml") -> Path:
@@ -116,7 +116,7 @@ def test_robot_init_then_check_passes_on_op3(tmp_path, capsys):
 
 
 def _g1_file(tmp_path: Path, replace: dict[str, str]) -> Path:
-    text = (_BUILTIN_DIR / "g1.toml").read_text()
+    text = (BUILTIN_DIR / "g1.toml").read_text()
     for old, new in replace.items():
         assert old in text
         text = text.replace(old, new)
@@ -143,7 +143,7 @@ def test_a_tilted_sole_or_a_model_without_floor_exits_2_naming_the_file(tmp_path
 def test_the_drafts_of_the_wheels_humanoids_stand_and_walk_10_s(tmp_path, model):
     """The unchanged draft of each six-joint-leg humanoid of the pinned model package stands 5 s
     and walks 10 s at 0.1 m/s with no infeasible QP (``ismpc robot check``'s criterion)."""
-    from robust_ismpc.sim.check import check_robot
+    from robust_ismpc.experiments.robot_check import check_robot
 
     draft = draft_robot(_menagerie(model))
     path = tmp_path / f"{model}.toml"

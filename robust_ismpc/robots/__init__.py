@@ -1,18 +1,18 @@
-"""Robot descriptions (:class:`RobotSpec`) and the built-in robots ``g1`` and ``op3``.
+"""Robot descriptions: robot files (TOML) and the built-in robots. Data only, no MuJoCo.
 
-Importing this package (which every MuJoCo-using module of robust-ismpc does first) sets
-``MUJOCO_GL=egl`` on a Linux machine without display when ``MUJOCO_GL`` is unset, because mujoco
-chooses its OpenGL backend once, when it is imported, and offscreen video needs EGL there.
+:func:`robust_ismpc.sim.model.load_robot` turns a robot file into a measured
+:class:`RobotSpec`.
 """
 
-import os as _os
-import sys as _sys
+from .robot_file import (
+           BUILTIN_ROBOTS,
+           RobotFile,
+           is_robot_file,
+           read_robot_file,
+           robot_file_path,
+           robot_reference,
+)
+from .spec import RobotSpec
 
-if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") and "mujoco" not in _sys.modules:
-    _os.environ.setdefault("MUJOCO_GL", "egl")
-
-from ..inputs import BUILTIN_ROBOTS  # noqa: E402
-from .robot_file import load_robot, load_robot_toml  # noqa: E402
-from .spec import RobotSpec  # noqa: E402
-
-__all__ = ["BUILTIN_ROBOTS", "RobotSpec", "load_robot", "load_robot_toml"]
+__all__ = ["BUILTIN_ROBOTS", "RobotFile", "RobotSpec", "is_robot_file", "read_robot_file", "robot_file_path",
+           "robot_reference"]

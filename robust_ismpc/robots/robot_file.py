@@ -1,44 +1,62 @@
-"""Robot files: read a TOML robot description, check it against its model, measure the model.
+"""Robot files: where they are, and reading one (keys and types checked, no MuJoCo).
 
-The format is in ``docs/robots.md``; :func:`load_robot` takes a built-in robot name or a file.
+The format is in ``docs/robots.md``. :func:`read_robot_file` returns the description as written;
+:func:`robust_ismpc.sim.model.load_robot` checks it against its model and measures the model.
 """
 
 from __future__ import annotations
 
-import functools
 import importlib.util
-import logging
-import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 import tomllib
 
 from ..exceptions import ModelError, ParameterError
-from ..inputs import BUILTIN_ROBOTS
-from .spec import (
-    _BUILTIN_DIR,
-    _FRAME_TYPES,
-    GAIT_FIELDS,
-    RobotSpec,
-    _as_vec3,
-    _compile_model,
-    _posture_qpos,
-    foot_frame_pose,
-    frame_id,
-    has_floor,
-)
+from .spec import _FRAME_TYPES, GAIT_FIELDS, _as_vec3
 
-logger = logging.getLogger("robust_ismpc")
+BUILTIN_DIR = Path(__file__).resolve().parent
+#: Built-in robots: one robot file each in ``robust_ismpc/robots`` (adding a file adds a robot).
+BUILTIN_ROBOTS: tuple[str, ...] = tuple(sorted(p.stem for p in BUILTIN_DIR.glob("*.toml")))
 
-#: Largest tilt of a sole frame in the standing posture [deg].
-MAX_SOLE_TILT_DEG = 2.0
 
-# --------------------------------------------------------------------------------------------
-# Loading
-# --------------------------------------------------------------------------------------------
+def is_robot_file(robot: str) -> bool:
+    """True if ``robot`` is the path of a robot file (``.toml``), False for a built-in name."""
+    return str(robot).endswith(".toml")
+
+
+def robot_reference(robot: str) -> str:
+    """``robot`` as runs keep it: a built-in name as given, a robot file as its absolute path (so
+    that sweep workers and reruns from another folder find it)."""
+    if is_robot_file(robot):
+        return str(Path(robot).expanduser().resolve())
+    return str(robot)
+
+
+def robot_file_path(name_or_toml_path: str | Path) -> Path:
+    """Absolute path of the robot file of a built-in robot name or of a ``.toml`` path.
+
+    Raises
+    ------
+    ParameterError
+        Neither a built-in name nor a ``.toml`` path (the message lists the built-in robots).
+    ModelError
+        The file does not exist.
+    """
+    if isinstance(name_or_toml_path, str) and name_or_toml_path in BUILTIN_ROBOTS:
+        return BUILTIN_DIR / f"{name_or_toml_path}.toml"
+    path = Path(name_or_toml_path)
+    if path.suffix != ".toml":
+        raise ParameterError(
+            f"unknown robot {str(name_or_toml_path)!r} for MuJoCo; robots available with --sim mujoco: "
+            f"{', '.join(BUILTIN_ROBOTS)}, or the path of a robot file (.toml, docs/robots.md)"
+        )
+    if not path.is_file():
+        raise ModelError(f"robot description file {str(path)!r} not found")
+    return path.resolve()
+
 
 _REQUIRED_KEYS = (
     "name",
@@ -92,49 +110,6 @@ def _resolve_model_path(toml_path: Path, table: dict[str, Any]) -> Path:
     return path
 
 
-def _measure(
-    model: mujoco.MjModel,
-    *,
-    root_body: str,
-    foot_frame_type: str,
-    feet: tuple[str, str],
-    offsets: tuple[tuple[float, float, float], tuple[float, float, float]],
-    posture: tuple[tuple[str, float], ...],
-) -> dict[str, float]:
-    """Mass, CoM height, foot spacing and base height of a model in a posture."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = _posture_qpos(model, root_body, posture)
-    mujoco.mj_kinematics(model, data)
-    mujoco.mj_comPos(model, data)
-    root_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-    soles = []
-    for name, offset, side in zip(feet, offsets, ("left", "right")):
-        fid = frame_id(model, foot_frame_type, name, f"{side} foot")
-        pos, rot = foot_frame_pose(model, data, foot_frame_type, fid)
-        soles.append(pos + rot @ np.asarray(offset))
-        tilt = math.degrees(math.acos(min(1.0, abs(rot[2, 2]))))
-        if tilt > MAX_SOLE_TILT_DEG:
-            raise ModelError(
-                f"{side}_foot: the sole frame is tilted by {tilt:.1f} deg in the standing posture (at most "
-                f"{MAX_SOLE_TILT_DEG:g}); level it in standing_posture, or give {side}_sole_quat if the sole is "
-                "rotated from the foot frame (`ismpc robot init` finds both)")
-    left, right = soles
-    if abs(left[2] - right[2]) > 0.005:
-        raise ModelError(
-            f"standing posture puts the soles at different heights ({left[2]:.4f} m vs {right[2]:.4f} m); "
-            "fix standing_posture or the sole offsets"
-        )
-    ground_z = 0.5 * (left[2] + right[2])
-    base_height = -ground_z
-    com_height = float(data.subtree_com[root_id][2] - ground_z)
-    return dict(
-        mass_kg=float(model.body_subtreemass[root_id]),
-        com_height_m=com_height,
-        foot_spacing_m=float(abs(left[1] - right[1])),
-        base_height_m=float(base_height),
-    )
-
-
 def _simulation_table(toml_path: Path, table: Any) -> dict[str, Any]:
     """The ``[simulation]`` table of a robot file, checked (ParameterError naming file and key)."""
     if not isinstance(table, dict):
@@ -177,8 +152,59 @@ def _sole_sites(toml_path: Path, table: dict[str, Any], frame_type: str, offsets
     return tuple(sites)
 
 
-def load_robot_toml(path: str | Path) -> RobotSpec:
-    """Read a robot description file and measure its model.
+@dataclass(frozen=True)
+class RobotFile:
+    """A robot file as written, keys and types checked (the model is not opened).
+
+    Attributes
+    ----------
+    path : Path
+        The file [absolute path].
+    table : dict
+        Its TOML content.
+    model_path : Path
+        The MJCF scene it names [absolute path].
+    foot_frame_type : str
+        ``"site"`` or ``"body"``; ``"site"`` when the file rotates its soles (``*_sole_quat``).
+    feet : tuple of 2 str
+        Left and right foot frame names (the added sole sites with ``*_sole_quat``).
+    offsets : tuple of 2 tuple of 3 float
+        Sole-frame origins in the foot frames [m] (zero on added sole sites).
+    sole_sites : tuple
+        Sites to add to the model (:attr:`~robust_ismpc.robots.spec.RobotSpec.sole_sites`).
+    posture : tuple of (str, float)
+        Standing posture, joint name and angle [rad].
+    gait_overrides : tuple of (str, float)
+        The ``[gait]`` table.
+    sole_outline_m : tuple of (float, float)
+        Load-bearing sole outline [m] (empty: the rectangle).
+    sole_size : dict
+        ``sole_length_m`` and ``sole_width_m`` [m].
+    simulation : dict
+        The ``[simulation]`` table, checked.
+    """
+
+    path: Path
+    table: dict
+    model_path: Path
+    foot_frame_type: str
+    feet: tuple[str, str]
+    offsets: tuple[tuple[float, float, float], tuple[float, float, float]]
+    sole_sites: tuple
+    posture: tuple[tuple[str, float], ...]
+    gait_overrides: tuple[tuple[str, float], ...]
+    sole_outline_m: tuple[tuple[float, float], ...]
+    sole_size: dict
+    simulation: dict
+
+    @property
+    def leg_joints(self) -> tuple[str, ...]:
+        """Leg joint names, as listed."""
+        return tuple(self.table["leg_joints"])
+
+
+def read_robot_file(path: str | Path) -> RobotFile:
+    """Read a robot description file and check its keys and their types.
 
     Parameters
     ----------
@@ -191,7 +217,7 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     ParameterError
         Missing, unknown or ill-typed keys.
     ModelError
-        Model file missing or not compilable, or names (feet, bodies, joints) absent in it.
+        The file or its model file is missing.
     """
     toml_path = Path(path).resolve()
     if not toml_path.is_file():
@@ -210,28 +236,14 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
             f"{', '.join(_REQUIRED_KEYS + _OPTIONAL_KEYS)}"
         )
     model_path = _resolve_model_path(toml_path, table)
-    model = _compile_model(str(model_path), model_path.stat().st_mtime)
-    if not has_floor(model):
-        raise ModelError(f"{toml_path}: model {str(model_path)!r} has no floor (a plane geom of the world "
-                         "body); point model at a scene file that adds one")
     frame_type = table["foot_frame_type"]
     if frame_type not in _FRAME_TYPES:
         raise ParameterError(f"{toml_path}: foot_frame_type must be 'site' or 'body', got {frame_type!r}")
-
-    for key in ("root_body", "torso_body"):
-        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, str(table[key])) < 0:
-            raise ModelError(f"{toml_path}: {key} {table[key]!r} not found in the model {model_path}")
-    for side in ("left", "right"):
-        name = table[f"{side}_foot"]
-        obj = mujoco.mjtObj.mjOBJ_SITE if frame_type == "site" else mujoco.mjtObj.mjOBJ_BODY
-        if not isinstance(name, str) or mujoco.mj_name2id(model, obj, name) < 0:
-            raise ModelError(f"{toml_path}: {side}_foot {frame_type} {name!r} not found in the model {model_path}")
-    leg_joints = table["leg_joints"]
-    if not isinstance(leg_joints, list):
+    for key in ("root_body", "torso_body", "left_foot", "right_foot"):
+        if not isinstance(table[key], str) or not table[key]:
+            raise ParameterError(f"{toml_path}: {key} must be a name (a non-empty string), got {table[key]!r}")
+    if not isinstance(table["leg_joints"], list) or not all(isinstance(j, str) for j in table["leg_joints"]):
         raise ParameterError(f"{toml_path}: leg_joints must be a list of joint names")
-    for joint in leg_joints:
-        if not isinstance(joint, str) or mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint) < 0:
-            raise ModelError(f"{toml_path}: leg joint {joint!r} not found in the model {model_path}")
     posture_table = table.get("standing_posture", {})
     if not isinstance(posture_table, dict):
         raise ParameterError(f"{toml_path}: standing_posture must be a table joint = angle [rad]")
@@ -250,7 +262,6 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
         raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
     sole_size = {key: _toml_number(toml_path, key, table[key]) for key in ("sole_length_m", "sole_width_m")}
     simulation = _simulation_table(toml_path, table.get("simulation", {}))
-
     owner = f"{toml_path}: "
     offsets = (
         _as_vec3(owner, "left_sole_offset_m", table["left_sole_offset_m"]),
@@ -259,75 +270,10 @@ def load_robot_toml(path: str | Path) -> RobotSpec:
     feet = (str(table["left_foot"]), str(table["right_foot"]))
     sole_sites = _sole_sites(toml_path, table, frame_type, offsets)
     if sole_sites:  # the sole frames become sites on the foot bodies
-        model = _compile_model(str(model_path), model_path.stat().st_mtime, sole_sites)
         frame_type, feet = "site", (sole_sites[0][0], sole_sites[1][0])
         offsets = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-    try:
-        measured = _measure(model, root_body=str(table["root_body"]), foot_frame_type=frame_type, feet=feet,
-                            offsets=offsets, posture=posture)
-    except ModelError as exc:
-        raise ModelError(f"{toml_path}: {exc}") from None
-    try:
-        spec = RobotSpec(
-            name=str(table["name"]),
-            model_path=model_path,
-            root_body=str(table["root_body"]),
-            torso_body=str(table["torso_body"]),
-            left_foot=feet[0],
-            right_foot=feet[1],
-            foot_frame_type=frame_type,
-            left_sole_offset_m=offsets[0],
-            right_sole_offset_m=offsets[1],
-            **sole_size,
-            leg_joints=tuple(leg_joints),
-            standing_posture=posture,
-            gait_overrides=gait_overrides,
-            sole_outline_m=sole_outline,
-            sole_sites=sole_sites,
-            **simulation,
-            **measured,
-        )
-        spec.params()  # the gait values, checked now so that the message names the file
-    except ParameterError as exc:
-        raise ParameterError(f"{toml_path}: {exc}") from None
-    logger.info(
-        "loaded robot %s: mass %.2f kg, CoM height %.3f m, foot spacing %.3f m",
-        spec.name, spec.mass_kg, spec.com_height_m, spec.foot_spacing_m,
+    return RobotFile(
+        path=toml_path, table=table, model_path=model_path, foot_frame_type=frame_type, feet=feet,
+        offsets=offsets, sole_sites=sole_sites, posture=posture, gait_overrides=gait_overrides,
+        sole_outline_m=sole_outline, sole_size=sole_size, simulation=simulation,
     )
-    return spec
-
-
-@functools.lru_cache(maxsize=16)
-def _load_cached(path: str, mtime: float) -> RobotSpec:
-    del mtime
-    return load_robot_toml(path)
-
-
-def load_robot(name_or_toml_path: str | Path) -> RobotSpec:
-    """Return the :class:`RobotSpec` of a built-in robot or of a robot description file.
-
-    Parameters
-    ----------
-    name_or_toml_path : str or Path
-        ``"g1"``, ``"op3"``, or the path of a TOML robot description.
-
-    Raises
-    ------
-    ParameterError
-        Unknown name (the message lists the built-in robots) or invalid description.
-    ModelError
-        Model file missing, or names absent in the model.
-    """
-    if isinstance(name_or_toml_path, str) and name_or_toml_path in BUILTIN_ROBOTS:
-        path = _BUILTIN_DIR / f"{name_or_toml_path}.toml"
-    else:
-        path = Path(name_or_toml_path)
-        if path.suffix != ".toml":
-            raise ParameterError(
-                f"unknown robot {str(name_or_toml_path)!r} for MuJoCo; robots available with --sim mujoco: "
-                f"{', '.join(BUILTIN_ROBOTS)}, or the path of a robot file (.toml, docs/robots.md)"
-            )
-        if not path.is_file():
-            raise ModelError(f"robot description file {str(path)!r} not found")
-    path = path.resolve()
-    return _load_cached(str(path), path.stat().st_mtime)

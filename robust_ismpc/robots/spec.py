@@ -1,31 +1,25 @@
 """Robot descriptions: which MJCF model, which feet, how big the soles, how it stands.
 
 A robot is described by one small TOML file (format in ``docs/robots.md``) pointing at an MJCF
-model. :func:`load_robot` reads it, checks the names against the model, puts the model in its
-standing posture and measures what the reduced model needs (mass, CoM height, foot spacing,
-base height), returning a frozen :class:`RobotSpec`.
-
-This module imports mujoco to measure the model; it never steps a simulation.
+model; :func:`robust_ismpc.sim.model.load_robot` reads it, checks it against the model and
+measures the model into a frozen :class:`RobotSpec`. This module is data only (no MuJoCo).
 """
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
-from ..exceptions import ModelError, ParameterError
-from ..params import RobotParams, check_positive
+from ..core.params import RobotParams, check_positive
+from ..exceptions import ParameterError
 
 logger = logging.getLogger("robust_ismpc")
 
-_BUILTIN_DIR = Path(__file__).resolve().parent
 
 #: RobotParams fields that are measured from the model and may not be overridden in ``[gait]``.
 MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_length_m", "sole_width_m")
@@ -88,7 +82,7 @@ class RobotSpec:
     base_height_m : float
         Height of the root body origin when standing with both soles on the floor [m], measured.
     gait_overrides : tuple of (str, float)
-        Values of :class:`~robust_ismpc.params.RobotParams` fields that replace the defaults.
+        Values of :class:`~robust_ismpc.core.params.RobotParams` fields that replace the defaults.
     sole_outline_m : tuple of (float, float)
         Vertices (x, y) of the region where the sole can bear load, in the sole frame [m]
         (convex, e.g. the contact spheres' centres); empty means the ``sole_length_m`` x
@@ -102,7 +96,7 @@ class RobotSpec:
         Sliding friction of the foot contact geoms in the simulation (None: the model's).
     servo_dynamic_feedforward : bool
         Servo playback only: add the inverse dynamics of the IK motion to the servos' torque
-        feedforward (:class:`~robust_ismpc.sim.mujoco_loop.LoopSettings`).
+        feedforward (:class:`~robust_ismpc.sim.loop.LoopSettings`).
     """
 
     name: str
@@ -200,33 +194,6 @@ class RobotSpec:
             return self.right_foot
         raise ParameterError(f"side must be 'left' or 'right', got {side!r}")
 
-    def load_model(self) -> mujoco.MjModel:
-        """Compile the MJCF scene (cached; do not mutate the returned model, copy it instead)."""
-        return _compile_model(str(self.model_path), self.model_path.stat().st_mtime, self.sole_sites)
-
-    def mj_spec(self) -> mujoco.MjSpec:
-        """The MJCF scene as an editable :class:`mujoco.MjSpec`, with :attr:`sole_sites` added."""
-        return _scene_spec(str(self.model_path), self.sole_sites)
-
-    def standing_qpos(self, model: mujoco.MjModel) -> np.ndarray:
-        """Generalised coordinates of the standing posture, soles on the floor at the origin.
-
-        Parameters
-        ----------
-        model : mujoco.MjModel
-            The robot model, or a scene built from it (extra joints keep ``qpos0``).
-
-        Returns
-        -------
-        ndarray, shape (model.nq,)
-            Root body at (0, 0, ``base_height_m``), identity orientation, joints in the standing
-            posture.
-        """
-        qpos = _posture_qpos(model, self.root_body, self.standing_posture)
-        adr = _free_qpos_adr(model, self.root_body)
-        qpos[adr + 2] = self.base_height_m
-        return qpos
-
     def params(self) -> RobotParams:
         """Reduced-model parameters of this robot.
 
@@ -264,86 +231,3 @@ def scaled_gait_defaults(com_height_m: float, sole_length_m: float, sole_width_m
         T_ds_s=round(max(0.1, 0.3 * math.sqrt(h / 1.0)), 2),
         swing_height_m=round(0.08 * h, 3),
     )
-
-
-# --------------------------------------------------------------------------------------------
-# Model helpers (shared with wbik and sim through these functions)
-# --------------------------------------------------------------------------------------------
-
-
-@functools.lru_cache(maxsize=8)
-def _compile_model(path: str, mtime: float, sites: tuple = ()) -> mujoco.MjModel:
-    del mtime  # part of the cache key only
-    try:
-        if not sites:
-            return mujoco.MjModel.from_xml_path(path)
-        return _scene_spec(path, sites).compile()
-    except ValueError as exc:
-        raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
-
-
-def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
-    """The scene at ``path`` as an MjSpec with ``sites`` ((name, body, pos, quat), ...) added."""
-    try:
-        spec = mujoco.MjSpec.from_file(path)
-    except ValueError as exc:
-        raise ModelError(f"cannot read MJCF model {path!r}: {exc}") from None
-    for name, body_name, pos, quat in sites:
-        body = spec.body(body_name)
-        if body is None:
-            raise ModelError(f"body {body_name!r} for the site {name!r} not found in the model {path!r}")
-        body.add_site(name=name, pos=list(pos), quat=list(quat))
-    return spec
-
-
-def has_floor(model: mujoco.MjModel) -> bool:
-    """True if the model has a floor: a plane geom of the world body."""
-    return any(model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)
-               for g in range(model.ngeom))
-
-
-def _free_qpos_adr(model: mujoco.MjModel, root_body: str) -> int:
-    body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-    if body_id < 0:
-        raise ModelError(f"root body {root_body!r} not found in the model")
-    jnt = model.body_jntadr[body_id]
-    if model.body_jntnum[body_id] < 1 or model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
-        raise ModelError(f"root body {root_body!r} has no free joint (floating base)")
-    return int(model.jnt_qposadr[jnt])
-
-
-def _posture_qpos(
-    model: mujoco.MjModel, root_body: str, posture: tuple[tuple[str, float], ...]
-) -> np.ndarray:
-    qpos = model.qpos0.copy()
-    adr = _free_qpos_adr(model, root_body)
-    qpos[adr : adr + 7] = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
-    for joint, value in posture:
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
-        if jid < 0:
-            raise ModelError(f"standing posture joint {joint!r} not found in the model")
-        qpos[model.jnt_qposadr[jid]] = value
-    return qpos
-
-
-def foot_frame_pose(
-    model: mujoco.MjModel, data: mujoco.MjData, frame_type: str, frame_id: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """World pose of a foot frame after kinematics: (position (3,) [m], rotation (3, 3))."""
-    if frame_type == "site":
-        return data.site_xpos[frame_id], data.site_xmat[frame_id].reshape(3, 3)
-    return data.xpos[frame_id], data.xmat[frame_id].reshape(3, 3)
-
-
-def frame_id(model: mujoco.MjModel, frame_type: str, name: str, what: str) -> int:
-    """Id of a site or body, raising :class:`ModelError` naming ``what`` when absent."""
-    obj = mujoco.mjtObj.mjOBJ_SITE if frame_type == "site" else mujoco.mjtObj.mjOBJ_BODY
-    fid = mujoco.mj_name2id(model, obj, name)
-    if fid < 0:
-        raise ModelError(f"{what} {frame_type} {name!r} not found in the model")
-    return int(fid)
-
-
-def frame_body(model: mujoco.MjModel, frame_type: str, fid: int) -> int:
-    """Body id carrying a site or body frame."""
-    return int(model.site_bodyid[fid]) if frame_type == "site" else fid

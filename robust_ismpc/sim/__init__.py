@@ -1,54 +1,13 @@
-"""MuJoCo layer: measurements, disturbances, closed loop, fall detection and video.
+"""MuJoCo layer: robot models, measurements, scenes and forces, whole-body control, the stepped
+simulation, fall and blow-up detection, video. The only package that imports mujoco.
 
-This subpackage (with :mod:`robust_ismpc.wbik` and :mod:`robust_ismpc.robots`) is the only
-place that imports mujoco.
+Importing it sets ``MUJOCO_GL=egl`` on a Linux machine without display when ``MUJOCO_GL`` is
+unset: mujoco chooses its OpenGL backend once, when it is imported, and offscreen video needs EGL
+there. Every module of this package is imported after this file runs.
 """
 
-# isort: off
-from .. import robots as _robots  # noqa: F401  (sets the MUJOCO_GL default before mujoco is imported)
+import os as _os
+import sys as _sys
 
-# isort: on
-
-from .disturbances import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
-from .inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
-from .mujoco_loop import (
-    LoopSettings,
-    MujocoSimulation,
-    initial_state,
-)
-from .mujoco_robot import (
-    ContactState,
-    FallCriteria,
-    MujocoRobot,
-    SolePose,
-    convex_hull,
-    distance_outside,
-    sole_corners,
-    standing_state,
-)
-from .video import VideoRecorder, VideoSettings, configure_offscreen_gl
-
-__all__ = [
-    "ContactState",
-    "FallCriteria",
-    "Force",
-    "ForceSchedule",
-    "Impulse",
-    "InverseDynamicsQp",
-    "LoopSettings",
-    "MujocoRobot",
-    "MujocoSimulation",
-    "Payload",
-    "SolePose",
-    "SwingingBall",
-    "TorqueControlSettings",
-    "VideoRecorder",
-    "VideoSettings",
-    "build_scene",
-    "configure_offscreen_gl",
-    "convex_hull",
-    "distance_outside",
-    "initial_state",
-    "sole_corners",
-    "standing_state",
-]
+if _sys.platform.startswith("linux") and not _os.environ.get("DISPLAY") and "mujoco" not in _sys.modules:
+    _os.environ.setdefault("MUJOCO_GL", "egl")

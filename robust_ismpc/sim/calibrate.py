@@ -1,8 +1,8 @@
-"""Measure a robot's swing-leg CoP gain κ (:attr:`~robust_ismpc.params.RobotParams.swing_cop_gain_s2`).
+"""Measure a robot's swing-leg CoP gain κ (:attr:`~robust_ismpc.core.params.RobotParams.swing_cop_gain_s2`).
 
 The robot walks its reference without physics: the nominal IS-MPC runs open loop, the whole-body
 IK follows the reference and the inverse dynamics of the IK motion gives, every tick, the centre
-of pressure the feet must carry (:attr:`~robust_ismpc.wbik.WholeBodyIk.last_contact_cop_m`).
+of pressure the feet must carry (:attr:`~robust_ismpc.sim.whole_body.ik.WholeBodyIk.last_contact_cop_m`).
 In single support its deviation from the LIP's ZMP along the walking direction is regressed on
 the swing foot's forward acceleration: the slope is κ.
 
@@ -19,14 +19,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..controller import IsmpcController
+from ..control.controller import IsmpcController
+from ..control.walk import start_walk
+from ..core.footsteps import LEFT
+from ..core.params import mpc_params_for
+from ..core.planner import WalkCommand
+from ..core.reference import Support
 from ..exceptions import ParameterError
-from ..footsteps import LEFT
-from ..params import mpc_params_for
-from ..planner import WalkCommand, plan_footsteps
-from ..reference import Support
-from ..robots import RobotSpec, load_robot
-from .mujoco_loop import LoopSettings, MujocoSimulation, initial_state
+from ..robots import RobotSpec
+from .loop import LoopSettings, MujocoSimulation, initial_state
+from .model import load_robot
 
 #: Smallest range of forward swing-foot acceleration [m/s²] to fit κ on. G1 at 0.05 m/s: 3.2;
 #: stepping in place: 2e-4 (which fitted κ = -13 s², meaningless).
@@ -107,9 +109,7 @@ def fit_swing_cop_gain(
     com0, left0, right0 = initial_state(spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
     controller = IsmpcController(params, mpc)
-    plan = plan_footsteps(params, command, controller.plan_duration_s(duration_s),
-                          left0.pos_m[:2], right0.pos_m[:2], yaw0)
-    controller.reset(plan, com0[:2], np.zeros(2), left_foot_m=left0.pos_m[:2], right_foot_m=right0.pos_m[:2])
+    start_walk(controller, command, duration_s, left0.pos_m[:2], right0.pos_m[:2], yaw0, com0[:2])
     sim = MujocoSimulation(spec, settings=LoopSettings(control_period_s=mpc.sampling_period_s,
                                                        dynamic_feedforward=True))
     deviation, acceleration = [], []

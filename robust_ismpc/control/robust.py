@@ -1,0 +1,515 @@
+"""Robust IS-MPC: nominal IS-MPC plus any subset of the three robustness modules (spec §11-§14).
+
+* ``observer``: the disturbance ŵ is measured directly, as the CoM acceleration the contact
+  forces do not explain (:class:`~robust_ismpc.estimation.estimator.DisturbanceEstimator`); its persistent
+  part is the floor of the mid-range target, the fresh estimate enters as far as
+  the shifted DCM stays feasible (:mod:`robust_ismpc.estimation.governor`); a mid-range filter saturates and
+  rate-limits the target into w̃, which enters the stability constraint through the shifted DCM
+  x̄_u = x_u + w̃/η² and the reference integration (+E_d w̃). An infeasible QP is retried with w̃
+  moved half-way, then all the way, to the persistent part.
+* ``restriction``: the ZMP boxes of the horizon shrink by R_i = r (i+1) δ, with r computed from
+  the deviation bound Δmax (:mod:`robust_ismpc.core.restriction`).
+* ``timing``: before the QP, the feasibility region of the shifted DCM is computed as a function
+  of the current step's touchdown time; if the DCM is near or beyond it, QP-STA chooses a new
+  touchdown (:mod:`robust_ismpc.control.step_timing`), the plan is re-timed (later steps shift, the
+  anticipative tail and the swing foot follow). An infeasible QP also triggers an adaptation
+  attempt before the fallback of :class:`~robust_ismpc.control.controller.IsmpcController`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
+from ..core.mpc import MpcPlan, MpcState
+from ..core.params import MpcParams, RobotParams, check_nonnegative
+from ..core.planner import kinematic_box, rotation
+from ..core.qp import QpSolver
+from ..core.reference import Measurement
+from ..core.restriction import checked_restriction_rate, max_tolerable_deviation, restriction_profile
+from ..estimation.estimator import DisturbanceEstimator
+from ..estimation.filters import MidrangeFilter, MidrangeParams, PersistenceFilter
+from ..estimation.governor import interval_unchecked, target_unchecked
+from ..exceptions import InfeasibleMpc, ParameterError
+from .controller import IsmpcController
+from .modules import MODULES, check_modules
+from .step_timing import StaParams, should_adapt, solve_sta
+
+#: Durations of the coming single support, as fractions of its nominal one, that
+#: :meth:`RobustIsmpcController._retime_next_step` tries in double support (within
+#: :meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
+DS_RETIMING_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
+
+
+@dataclass(frozen=True)
+class RobustParams:
+    """Settings of the robustness modules.
+
+    Attributes
+    ----------
+    delta_max_mps2 : float or None
+        Δmax, the deviation of the disturbance from its mid-range that the ZMP restriction
+        guarantees [m/s²]. None: ``delta_max_fraction`` of the largest value the foot and horizon
+        can guarantee.
+    delta_max_fraction : float
+        Used when ``delta_max_mps2`` is None, in (0, 1).
+    disturbance_time_constant_s : float
+        Time constant of the low-pass filter on the measured disturbance [s]
+        (:class:`~robust_ismpc.estimation.estimator.DisturbanceEstimator`).
+    persistence_s : float
+        The part of the estimate that persisted this long with one sign is its persistent part
+        (see :class:`~robust_ismpc.estimation.filters.PersistenceFilter`) [s], the floor of the mid-range
+        target: impulsive pushes are left to the step timing adaptation instead of being
+        compensated as if they lasted forever.
+    transient_time_constant_s : float
+        T, how long a fresh disturbance (the part of ŵ that has not yet persisted for
+        ``persistence_s``) is expected to last [s]. The modified stability constraint treats
+        w̃ as constant forever; a disturbance decaying as ``e^{-t/T}`` shifts the DCM by only
+        ``ηT / (1 + ηT)`` of that (docs/derivations.md), so the fresh part enters the target
+        scaled by this factor. Default 0.1 s, the length of a push: on the g1 LIP the robust
+        controller then holds at least 0.9× nominal's impulse in the cells where compensating
+        a push as lasting made it fall first (docs/robust.md). ``math.inf``: the fresh part
+        counts in full.
+    governor : bool
+        True (default): the fresh estimate (without the persistence window) enters the mid-range
+        target as far as the shifted DCM stays inside the exact feasibility region of the current
+        step timing, on each axis of the support frame, in single support
+        (:mod:`robust_ismpc.estimation.governor`); a persistent force is then compensated without waiting
+        for the persistence window, while a push cannot move the shifted DCM out of the region.
+        False: the persistent part only. On the g1 LIP (0.2 m/s, force from 3 s, 0.1 s pushes in
+        single support) the governor raises the largest constant +x force survived from 20 N to
+        about 37 N and the largest +y / -y push from 37 / 41 N to about 48 / 84 N (measured).
+    midrange_rate_mps3 : float
+        Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
+        restriction's guarantee holds while w̃ is steady.
+    sta : StaParams or None
+        Step timing adaptation settings; None: defaults with the safety margin (and trigger
+        distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
+        box, and with 1/4 or 1/8 of the box the undisturbed gaits of g1, op3 and nao already
+        come that close to their bounds and get re-timed; with 1/16 none of hrp4, g1, op3, nao
+        adapts in 10 s walks forward, backward, sideways and turning (measured).
+    """
+
+    delta_max_mps2: float | None = None
+    delta_max_fraction: float = 0.5
+    disturbance_time_constant_s: float = 0.03
+    persistence_s: float = 0.12
+    transient_time_constant_s: float = 0.1
+    governor: bool = True
+    midrange_rate_mps3: float = 10.0
+    sta: StaParams | None = None
+
+    def __post_init__(self) -> None:
+        if self.delta_max_mps2 is not None and not (
+            isinstance(self.delta_max_mps2, (int, float)) and math.isfinite(self.delta_max_mps2) and self.delta_max_mps2 >= 0
+        ):
+            raise ParameterError(f"RobustParams.delta_max_mps2 must be a finite number >= 0, got {self.delta_max_mps2!r}")
+        if not (isinstance(self.delta_max_fraction, (int, float)) and 0 < self.delta_max_fraction < 1):
+            raise ParameterError(f"RobustParams.delta_max_fraction must be in (0, 1), got {self.delta_max_fraction!r}")
+        if not (isinstance(self.persistence_s, (int, float)) and math.isfinite(self.persistence_s)
+                and self.persistence_s >= 0):
+            raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
+        if not (isinstance(self.transient_time_constant_s, (int, float)) and self.transient_time_constant_s > 0
+                and not math.isnan(self.transient_time_constant_s)):
+            raise ParameterError("RobustParams.transient_time_constant_s must be a number > 0 (inf allowed), "
+                                 f"got {self.transient_time_constant_s!r}")
+        if not isinstance(self.governor, bool):
+            raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
+        check_nonnegative("RobustParams", disturbance_time_constant_s=self.disturbance_time_constant_s)
+        if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
+                and self.midrange_rate_mps3 > 0):
+            raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
+
+
+@dataclass
+class _TimingRecord:
+    adaptations: int = 0
+    min_time_to_step_s: float = math.inf
+    adapted_this_cycle: bool = False
+    bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
+
+    def record(self, time_to_touchdown_s: float) -> None:
+        """Count one re-timing this cycle, with the time left to the re-timed touchdown [s]."""
+        self.adaptations += 1
+        self.adapted_this_cycle = True
+        self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
+
+
+class RobustIsmpcController(IsmpcController):
+    """IS-MPC with the observer, restriction and timing modules selectable.
+
+    Parameters
+    ----------
+    robot : RobotParams
+    mpc : MpcParams, optional
+    modules : sequence of str
+        Any subset of ``observer``, ``restriction``, ``timing``.
+    delta_max_mps2 : float, optional
+        Overrides ``params.delta_max_mps2``.
+    solver : QpSolver, optional
+    params : RobustParams, optional
+    **controller_options
+        ``replan_on_landing``, ``estimator`` (see the base class).
+
+    Raises
+    ------
+    ParameterError
+        For unknown modules, or a Δmax that the restriction cannot guarantee with this foot and
+        horizon (the message gives the largest one that can be).
+    """
+
+    def __init__(
+        self,
+        robot: RobotParams,
+        mpc: MpcParams | None = None,
+        modules=MODULES,
+        delta_max_mps2: float | None = None,
+        solver: QpSolver | None = None,
+        params: RobustParams | None = None,
+        **controller_options,
+    ):
+        super().__init__(robot, mpc, solver=solver, **controller_options)
+        self.modules = frozenset(check_modules(modules))
+        params = params if params is not None else RobustParams()
+        if delta_max_mps2 is not None:
+            params = replace(params, delta_max_mps2=delta_max_mps2)
+        self.robust_params = params
+        mpc_p = self.mpc_params
+        box = min(robot.zmp_box_x_m, robot.zmp_box_y_m)
+        self.restriction_rate_mps = 0.0
+        self.delta_max_mps2 = 0.0
+        self._restriction_m: np.ndarray | None = None
+        if "restriction" in self.modules:
+            dmax = params.delta_max_mps2
+            if dmax is None:
+                dmax = params.delta_max_fraction * max_tolerable_deviation(
+                    box, self.eta, self.dt, mpc_p.control_horizon_s
+                )
+            reach = math.hypot(0.5 * robot.kin_box_x_m, robot.foot_spacing_m + 0.5 * robot.kin_box_y_m)
+            self.restriction_rate_mps = checked_restriction_rate(
+                dmax, self.eta, self.dt, mpc_p.control_horizon_s, robot.zmp_box_x_m, robot.zmp_box_y_m,
+                preview_horizon_s=mpc_p.preview_horizon_s, max_zmp_speed_mps=reach / robot.T_ds_s,
+            )
+            self.delta_max_mps2 = float(dmax)
+            self._restriction_m = restriction_profile(self.restriction_rate_mps, self.dt, mpc_p.C)
+        self.sta_params = params.sta if params.sta is not None else StaParams(margin_m=box / 16)
+        self.observer: DisturbanceEstimator | None = None
+        self.midrange: MidrangeFilter | None = None
+        if "observer" in self.modules:
+            self.observer = DisturbanceEstimator(params.disturbance_time_constant_s)
+            self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
+            self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
+            eta_t = self.eta * params.transient_time_constant_s
+            self.transient_weight = 1.0 if math.isinf(eta_t) else eta_t / (1.0 + eta_t)
+        self.persistent_disturbance_mps2 = np.zeros(2)
+        self.fresh_disturbance_mps2 = np.zeros(2)
+        self.disturbance_retries = 0
+        self.timing = _TimingRecord()
+        self._row_weights = zmp_row_weights(self.eta, self.dt, mpc_p.control_horizon_s)
+
+    # ------------------------------------------------------------------------------------
+    def reset(self, plan, com_pos_m, com_vel_mps=None, left_foot_m=None, right_foot_m=None, t_s: float = 0.0) -> None:
+        super().reset(plan, com_pos_m, com_vel_mps, left_foot_m, right_foot_m, t_s)
+        self.nominal_T_ss_s = plan.T_ss_s.copy()
+        self.timing = _TimingRecord()
+        self._bounds_cache = None
+        self._bounds_now = None
+        if self.observer is not None:
+            self.observer.reset()
+            self.midrange.reset(0.0)
+            self.persistence.reset()
+        self.persistent_disturbance_mps2 = np.zeros(2)
+        self.fresh_disturbance_mps2 = np.zeros(2)
+        self.disturbance_retries = 0
+
+    def plan_duration_s(self, run_s: float) -> float:
+        """As the nominal controller's, stretched so that the plan still covers the run when every
+        single support is re-timed to its shortest (re-timing pulls the later steps earlier)."""
+        length = super().plan_duration_s(run_s)
+        if "timing" not in self.modules:
+            return length
+        robot = self.robot
+        shortest_step_s = self.sta_params.ss_limits(robot.T_ss_s)[0] + robot.T_ds_s
+        return length * max(1.0, robot.T_step_s / shortest_step_s)
+
+    @property
+    def timing_adaptations(self) -> int:
+        """Number of cycles in which the step timing was changed."""
+        return self.timing.adaptations
+
+    def _restriction(self) -> np.ndarray | None:
+        return self._restriction_m
+
+    def _before_cycle(self, t_s: float, measurement: Measurement | None) -> None:
+        self.info.observer_time_s = 0.0
+        if self.observer is None or measurement is None:
+            return
+        start = time.perf_counter()
+        w_hat = self.observer.update(t_s, measurement.com_vel_mps, measurement.contact_acc_mps2,
+                                     measurement.external_moment_acc_mps2)
+        self.disturbance_estimate_mps2 = w_hat
+        self.persistent_disturbance_mps2 = self.persistence.update(w_hat)
+        # the fresh part, expected to decay with transient_time_constant_s; w̃ follows in _mpc_state
+        persistent = self.persistent_disturbance_mps2
+        self.fresh_disturbance_mps2 = persistent + self.transient_weight * (w_hat - persistent)
+        self.info.observer_time_s = time.perf_counter() - start
+
+    def _mpc_state(self, t_s: float, measurement: Measurement | None) -> MpcState:
+        state = super()._mpc_state(t_s, measurement)
+        if self.observer is None or measurement is None:  # no new estimate this cycle
+            return state
+        start = time.perf_counter()
+        dcm = state.dcm_m - self.disturbance_mps2 / self.eta**2  # x_u, unshifted
+        self.disturbance_mps2 = self.midrange.update(self._disturbance_target(t_s, dcm, state))
+        self.info.observer_time_s += time.perf_counter() - start
+        return MpcState(t_s=state.t_s, dcm_m=dcm + self.disturbance_mps2 / self.eta**2, zmp_m=state.zmp_m)
+
+    def _disturbance_target(self, t_s: float, dcm_m: np.ndarray, state: MpcState) -> np.ndarray:
+        """Mid-range target (world frame): the persistent part, plus the fresh estimate as far as
+        the governor admits it (single support only, where the feasibility region is known)."""
+        persistent = self.persistent_disturbance_mps2
+        if not self.robust_params.governor:
+            return persistent
+        plan = self.plan
+        j = plan.step_at(t_s)
+        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9:
+            return persistent
+        bx, by, R, origin = self._current_bounds(t_s, j, state, plan.touchdown_s[j] - t_s)
+        low, high = interval_unchecked(
+            R.T @ (dcm_m - origin), np.array([bx[0], by[0]]), np.array([bx[1], by[1]]), self.eta**2
+        )
+        return R @ target_unchecked(R.T @ persistent, R.T @ self.fresh_disturbance_mps2, low, high)
+
+    # ------------------------------------------------------------------------------------
+    def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
+        """Per-axis feasibility inputs in the frame of the current support footstep j-1.
+
+        ``zmp_m`` overrides the ZMP of ``state`` (world frame) when given. As in the QP, the
+        landing footstep j can move within the kinematic box except in the last
+        ``footstep_freeze_s`` before touchdown (held where the QP froze it), and with
+        ``fix_footsteps`` no footstep moves from its candidate.
+
+        Returns
+        -------
+        inputs_x, inputs_y : AxisFeasibilityInputs
+        rotation_m : ndarray, shape (2, 2)
+            Support-frame axes in the world (local = Rᵀ (world - origin)).
+        origin_m : ndarray, shape (2,)
+            Support footstep position [m].
+        """
+        plan, robot, mpc = self.plan, self.robot, self.mpc_params
+        origin = plan.pos_m[j - 1]
+        R = rotation(plan.yaw_rad[j - 1])
+        td = plan.touchdown_s
+        n = max(1, int(np.count_nonzero(td[j:] < t_s + mpc.preview_horizon_s - 1e-9)))
+        idx = np.arange(j, min(j + n, plan.n_footsteps))
+        targets = plan.candidate_pos_m[idx].copy()
+        frozen = self._landing_footstep_frozen(t_s, j)
+        if frozen:  # the QP holds the landing footstep where it last put it
+            targets[0] = plan.pos_m[j]
+        candidates = (targets - origin) @ R  # rows Rᵀ(p - origin)
+        nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
+        sides = plan.side[idx].astype(float)
+        zmp_local = R.T @ ((state.zmp_m if zmp_m is None else zmp_m) - origin)
+        periods = np.diff(td[idx])
+        common = dict(
+            support_pos_m=0.0, restriction_rate_mps=self.restriction_rate_mps, T_ds_s=float(plan.T_ds_s[j]),
+            step_periods_s=periods, eta=self.eta, sampling_period_s=self.dt,
+            control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
+        )
+        boxes = {side: kinematic_box(robot, side) for side in (-1, 1)}
+        lo = np.array([boxes[int(side)][0] for side in sides])
+        hi = np.array([boxes[int(side)][1] for side in sides])
+        if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
+            lo, hi = nominal.copy(), nominal.copy()
+        elif frozen:
+            lo[0] = hi[0] = nominal[0]
+        inputs_x = AxisFeasibilityInputs(
+            zmp_pos_m=float(zmp_local[0]), zmp_half_width_m=0.5 * robot.zmp_box_x_m,
+            disp_lo_m=lo[:, 0], disp_hi_m=hi[:, 0], disp_nominal_m=nominal[:, 0], **common,
+        )
+        inputs_y = AxisFeasibilityInputs(
+            zmp_pos_m=float(zmp_local[1]), zmp_half_width_m=0.5 * robot.zmp_box_y_m,
+            disp_lo_m=lo[:, 1], disp_hi_m=hi[:, 1], disp_nominal_m=nominal[:, 1], **common,
+        )
+        return inputs_x, inputs_y, R, origin
+
+    def _landing_footstep_frozen(self, t_s: float, j: int) -> bool:
+        """True once the QP holds footstep j fixed (the last ``footstep_freeze_s`` before touchdown)."""
+        return bool(t_s >= self.plan.touchdown_s[j] - self.mpc_params.footstep_freeze_s - 1e-9)
+
+    def _current_bounds(self, t: float, j: int, state: MpcState, remaining: float):
+        """Exact feasibility bounds for the current timing, in the support frame.
+
+        The bounds depend on the current ZMP only through the affine term w_0 x_z^k
+        (derivations §3.1), so the inputs are built once per step and plan change with the ZMP
+        at the support origin, the ZMP-free bounds once per cycle (the governor and the timing
+        check ask for the same ones), and the ZMP term is added at each call.
+        """
+        td = self.plan.touchdown_s
+        n = int(np.count_nonzero(td[j:] < t + self.mpc_params.preview_horizon_s - 1e-9))
+        key = (j, n, self._anchored_step, self.timing.adaptations, self._landing_footstep_frozen(t, j))
+        if self._bounds_cache is None or self._bounds_cache[0] != key:
+            origin = self.plan.pos_m[j - 1]
+            inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state, zmp_m=origin)
+            self._bounds_cache = (key, inputs_x, inputs_y, R, origin)
+        _, inputs_x, inputs_y, R, origin = self._bounds_cache
+        zmp_local = R.T @ (state.zmp_m - origin)
+        w0 = inputs_x._consts["w0"]  # noqa: SLF001 - the affine ZMP coefficient of the bounds
+        if self._bounds_now is None or self._bounds_now[0] != (key, remaining):
+            self._bounds_now = (
+                (key, remaining), feasibility_bounds_at(inputs_x, remaining), feasibility_bounds_at(inputs_y, remaining),
+            )
+        _, (lx, ux), (ly, uy) = self._bounds_now
+        # the QP bounds the ZMP plus the swing leg's CoP offset: both bounds move by -Σ κ_i o_i
+        cop_shift = R.T @ self._cop_shift_m(t)
+        bx = (lx + w0 * zmp_local[0] - cop_shift[0], ux + w0 * zmp_local[0] - cop_shift[0])
+        by = (ly + w0 * zmp_local[1] - cop_shift[1], uy + w0 * zmp_local[1] - cop_shift[1])
+        return bx, by, R, origin
+
+    def _cop_shift_m(self, t_s: float) -> np.ndarray:
+        """``Σ_i κ_i o_i``, world frame [m]: the feasibility bounds move by minus this when the QP
+        bounds the ZMP plus the swing leg's CoP offset o_i on its rows
+        (:func:`~robust_ismpc.core.feasibility.zmp_row_weights`). Exact for the current timing; zero
+        without a swing-leg CoP model (κ = 0, the LIP).
+        """
+        offset = self._swing_cop_offset(t_s)
+        return np.zeros(2) if offset is None else self._row_weights @ offset
+
+    def _adapt_timing(self, state: MpcState, qp_infeasible: bool = False) -> bool:
+        """Check feasibility and adapt the current touchdown if needed; True if it changed."""
+        plan, t = self.plan, state.t_s
+        j = plan.step_at(t)
+        touchdown = plan.touchdown_s[j]
+        if j < 2 or t >= touchdown - 1e-9:
+            self.timing.bounds_world_m = np.full(4, np.nan)
+            return False
+        remaining = touchdown - t
+        bx, by, R, origin = self._current_bounds(t, j, state, remaining)
+        dcm_local = R.T @ (state.dcm_m - origin)
+        if abs(plan.yaw_rad[j - 1]) < 1e-12:
+            self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
+        else:
+            self.timing.bounds_world_m = np.full(4, np.nan)
+        if not should_adapt(
+            dcm_local, (float(bx[0]), float(bx[1])), (float(by[0]), float(by[1])), self.sta_params.margin_m,
+            in_single_support=True, time_to_touchdown_s=remaining, freeze_s=self.sta_params.freeze_s,
+            qp_infeasible=qp_infeasible,
+        ):
+            return False
+        inputs_x, inputs_y, _, _ = self.feasibility_inputs(t, j, state)
+        # solve_sta's bounds leave out the swing leg's CoP offset; moving the DCM by the offset's
+        # shift instead is the same check (the shift is the current timing's, kept for the new one)
+        result = solve_sta(
+            t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]),
+            dcm_local + R.T @ self._cop_shift_m(t), inputs_x, inputs_y, self.sta_params,
+        )
+        if not result.changed:
+            return False
+        plan.retime_touchdown(j, result.touchdown_time_s)
+        self.timing.record(result.time_to_touchdown_s)
+        self._log.warning(
+            "sta", t, f"step timing adapted: touchdown in {result.time_to_touchdown_s:.2f} s (was {remaining:.2f} s)"
+        )
+        return True
+
+    def _adapt(self, state: MpcState) -> None:
+        self.timing.adapted_this_cycle = False
+        self.info.timing_time_s = 0.0
+        if "timing" in self.modules:
+            start = time.perf_counter()
+            self._adapt_timing(state)
+            self.info.timing_time_s = time.perf_counter() - start
+
+    def _solve_qp_timed(self, state: MpcState) -> MpcPlan:
+        try:
+            return super()._solve_qp(state)
+        except InfeasibleMpc:
+            if "timing" not in self.modules:
+                raise
+            if self._adapt_timing(state, qp_infeasible=True):
+                return super()._solve_qp(state)
+            result = self._retime_next_step(state)
+            if result is None:
+                raise
+            return result
+
+    def _retime_next_step(self, state: MpcState) -> MpcPlan | None:
+        """In double support, when the QP is infeasible: re-time the coming single support to the
+        duration nearest its current one, within the step timing limits, for which the QP is
+        feasible.
+
+        The analytical feasibility bounds (:meth:`_adapt_timing`) hold in single support only, so
+        here the QP itself decides: durations on the :data:`DS_RETIMING_FRACTIONS` grid of the
+        nominal single support are tried nearest first. Returns the plan, or None (timing left
+        as it was) in single support or if no duration is feasible.
+        """
+        plan, t = self.plan, state.t_s
+        j = plan.step_at(t)
+        k = j + 1  # the step whose single support comes next
+        if j < 2 or t < plan.touchdown_s[j] - 1e-9 or k >= plan.n_footsteps:
+            return None
+        nominal = float(self.nominal_T_ss_s[k])
+        lo, hi = self.sta_params.ss_limits(nominal)
+        current = float(plan.T_ss_s[k])
+        durations = {round(f * nominal / self.dt) * self.dt for f in DS_RETIMING_FRACTIONS}
+        durations = sorted((d for d in durations if lo - 1e-9 <= d <= hi + 1e-9 and abs(d - current) > 1e-9),
+                           key=lambda d: abs(d - current))
+        start = float(plan.ss_start_s[k])
+        for duration in durations:
+            plan.retime_touchdown(k, start + duration)
+            try:
+                result = super()._solve_qp(state)
+            except InfeasibleMpc:
+                continue
+            except BaseException:
+                plan.retime_touchdown(k, start + current)
+                raise
+            self.timing.record(start + duration - t)
+            self._log.warning("sta", t, f"next single support re-timed in double support: {duration:.2f} s "
+                                        f"(was {current:.2f} s)")
+            return result
+        plan.retime_touchdown(k, start + current)
+        return None
+
+    def _solve_qp(self, state: MpcState) -> MpcPlan:
+        """Solve, adapting the timing if infeasible; if still infeasible, retry with w̃ moved
+        half-way, then all the way, to the persistent part of the estimate.
+
+        The governor's feasibility bounds are exact for the nominal gait but optimistic close to
+        a re-timed touchdown (g1, measured: the QP accepted 2 cm of a 9 cm interval), so w̃ can
+        still be more than the plan absorbs; the persistent part is the safe value.
+        """
+        try:
+            return self._solve_qp_timed(state)
+        except InfeasibleMpc:
+            if self.observer is None or not self.robust_params.governor:
+                raise
+            current = self.disturbance_mps2.copy()
+            persistent = self.persistent_disturbance_mps2
+            if np.allclose(current, persistent):
+                raise
+            for fraction in (0.5, 1.0):
+                w = current + fraction * (persistent - current)
+                retry = MpcState(t_s=state.t_s, dcm_m=state.dcm_m + (w - current) / self.eta**2, zmp_m=state.zmp_m)
+                try:
+                    result = self._solve_qp_timed(retry)
+                except InfeasibleMpc:
+                    continue
+                self.disturbance_mps2 = w
+                self.midrange.reset(w)
+                self.disturbance_retries += 1
+                return result
+            raise
+
+    def extra_channels(self) -> dict:
+        return {
+            "feasibility_m": self.timing.bounds_world_m,
+            "timing_adapted": float(self.timing.adapted_this_cycle),
+            "observer_ms": 1e3 * self.info.observer_time_s,
+            "timing_ms": 1e3 * self.info.timing_time_s,
+        }

@@ -1,0 +1,721 @@
+r"""Feasibility region of the IS-MPC QP per axis, as a function of the step timing (spec §8, §13).
+
+The QP (per horizontal axis, at t_k, sampling δ, C = T_c/δ, P = T_p/δ) has ZMP velocities
+:math:`\dot x_z^{k..k+C-1}` as decisions, ZMP rows at :math:`t_{k+i+1}`
+(:math:`|x_z^{k+i+1} - c(t_{k+i+1})| \le d_z/2 - r(i+1)\delta`), footsteps whose double-support
+ramp starts inside the control horizon as decisions within kinematic displacement bounds, the
+anticipative centre tail sampled every δ up to T_p and held afterwards, and the stability
+constraint in position form with the shifted DCM. Its feasibility region is the interval
+:math:`[x_u^m, x_u^M]` of shifted DCMs for which it has a solution.
+
+Closed form (``docs/derivations.md`` §3; exact when every timing breakpoint lies on the δ grid).
+With :math:`a_j` the start of DS ramp j relative to t_k, :math:`\mu_c = e^{-\eta T_c}`,
+:math:`w_0 = 1 - (1-\lambda)/(\eta\delta)`, ramp integrals
+
+.. math::
+
+    G_j = \rho_j(0) + \frac{e^{-\eta\max(a_j,0)} - e^{-\eta\min(a_j+T_{ds},\,T_p)}}{\eta T_{ds}}
+    \quad(\text{second term only if } \min(a_j+T_{ds},T_p) > \max(a_j,0)),
+
+the centre integral :math:`\eta\int_0^\infty e^{-\eta\tau}\tilde c(\tau)d\tau = p_0 + \sum_j G_j Δ_j`
+and
+
+.. math::
+
+    x_u^M = p_0 + \sum_j G_j\hat Δ_j + \sum_{j\in D}\gamma_j(Δ^+_j - \hat Δ_j)
+            + w_0(x_z^k - c_0 - \tfrac{d_z}{2}) + \tfrac{d_z}{2}(1-\mu_c)
+            - r\big[\tfrac{1-\mu_c}{\eta} - T_c\mu_c\big],
+
+:math:`x_u^m` likewise with :math:`Δ^-_j` and the signs of the :math:`d_z` and r terms flipped.
+D is the set of decision footsteps (0 < a_j < T_c); :math:`\gamma_j = G_j` when the later
+(tail) footsteps are placed relative to the last decision footstep, and
+:math:`\gamma_j = G_j - G_{next}` (G of the first footstep after D) when they are the planner's
+absolute candidate positions.
+
+For step timing adaptation the touchdown of the current step is encoded as
+:math:`Δλ = e^{-\eta(t_s - t_k)}`, i.e. :math:`a_1 = -\ln(Δλ)/\eta`, and every later ramp keeps
+its offset from the first one. The bounds are piecewise affine in Δλ with jumps where a footstep
+enters the control horizon; :func:`affine_inner_estimate` fits the tightest line that stays
+inside them on an interval.
+
+A known offset :math:`o_i` of the constrained point from the ZMP on row i (the QP bounds
+:math:`x_z^{k+i} + o_i` instead of :math:`x_z^{k+i}`, e.g. the CoP a swing leg adds,
+:mod:`robust_ismpc.core.swing_cop`) moves both bounds by :math:`-\sum_i \kappa_i o_i`, with the row
+weights of :func:`zmp_row_weights` (``docs/derivations.md`` §5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+
+from ..exceptions import ParameterError, SolverError
+
+__all__ = [
+    "AxisFeasibilityInputs",
+    "AffineFeasibility",
+    "AxisProgram",
+    "feasibility_bounds_at",
+    "feasibility_bounds",
+    "feasibility_breakpoints",
+    "affine_inner_estimate",
+    "build_axis_program",
+    "feasibility_bounds_lp",
+    "straight_gait_inputs",
+    "zmp_row_weights",
+]
+
+TAIL_ANCHORS = ("candidate", "decision")
+# A footstep is a decision variable iff its ramp starts strictly before T_c; a ramp starting
+# within this tolerance of T_c counts as starting at T_c (a candidate). 1 ns is far below any
+# sampling period, so on a δ grid the classification equals "start sample index < C".
+_CLASSIFY_TOL_S = 1e-9
+# Lines returned by the affine estimate are lowered by this much so that float rounding can
+# never put them outside the exact bounds [m].
+_INNER_SAFETY_M = 1e-12
+
+
+def _finite(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
+            raise ParameterError(f"{owner}.{name} must be a finite number, got {value!r}")
+
+
+def _positive(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value) or value <= 0:
+            raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class AxisFeasibilityInputs:
+    """Everything the feasibility bounds of one axis depend on, besides the touchdown time.
+
+    Positions are along one horizontal axis of the current support-foot frame (orientation
+    changes inside the horizon are ignored). Footstep j = 1..N is the one landing at the end of
+    the j-th single support from now (j = 1: the current swing foot).
+
+    Attributes
+    ----------
+    support_pos_m : float
+        p_0, the current support footstep [m].
+    zmp_pos_m : float
+        x_z^k, the ZMP at t_k (the MPC's initial state) [m].
+    zmp_half_width_m : float
+        d_z/2 along this axis [m].
+    restriction_rate_mps : float
+        r [m/s] (0: no restriction).
+    disp_lo_m, disp_hi_m : ndarray, shape (N,)
+        Kinematic bounds on the displacement p_j − p_{j−1} of each footstep [m]; for y,
+        s_j ℓ ∓ d_ay/2.
+    disp_nominal_m : ndarray, shape (N,)
+        Candidate displacements p̂_j − p̂_{j−1} [m]; candidate positions are
+        p_0 + cumsum(disp_nominal_m). A footstep that has already landed (its ramp started at or
+        before t_k) is fixed at its nominal displacement: pass its actual one.
+    T_ds_s : float
+        Double-support duration T_ds [s] (> 0).
+    step_periods_s : ndarray, shape (N−1,)
+        Time between consecutive ramp starts a_{j+1} − a_j = T_ds + T_ss of step j+1 [s]
+        (each >= T_ds). A scalar is broadcast.
+    eta : float
+        η [1/s].
+    sampling_period_s : float
+        δ [s].
+    control_horizon_s, preview_horizon_s : float
+        T_c, T_p [s], whole multiples of δ, T_p >= T_c.
+    tail_anchor : str
+        ``"candidate"`` (default): footsteps after the decision ones are the planner's absolute
+        candidate positions. ``"decision"``: they keep their nominal displacements from the last
+        decision footstep (spec §13.1's verified formula).
+    """
+
+    support_pos_m: float
+    zmp_pos_m: float
+    zmp_half_width_m: float
+    restriction_rate_mps: float
+    disp_lo_m: np.ndarray
+    disp_hi_m: np.ndarray
+    disp_nominal_m: np.ndarray
+    T_ds_s: float
+    step_periods_s: np.ndarray | float
+    eta: float
+    sampling_period_s: float
+    control_horizon_s: float
+    preview_horizon_s: float
+    tail_anchor: str = "candidate"
+
+    def __post_init__(self) -> None:
+        owner = "AxisFeasibilityInputs"
+        _finite(owner, support_pos_m=self.support_pos_m, zmp_pos_m=self.zmp_pos_m)
+        _positive(
+            owner,
+            zmp_half_width_m=self.zmp_half_width_m,
+            T_ds_s=self.T_ds_s,
+            eta=self.eta,
+            sampling_period_s=self.sampling_period_s,
+            control_horizon_s=self.control_horizon_s,
+            preview_horizon_s=self.preview_horizon_s,
+        )
+        _finite(owner, restriction_rate_mps=self.restriction_rate_mps)
+        if self.restriction_rate_mps < 0:
+            raise ParameterError(f"{owner}.restriction_rate_mps must be >= 0, got {self.restriction_rate_mps}")
+        arrays = {}
+        for name in ("disp_lo_m", "disp_hi_m", "disp_nominal_m"):
+            arr = np.array(getattr(self, name), dtype=float, ndmin=1)
+            if arr.ndim != 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
+                raise ParameterError(f"{owner}.{name} must be a non-empty finite 1-D array, got {getattr(self, name)!r}")
+            arrays[name] = arr
+        n = arrays["disp_lo_m"].size
+        if arrays["disp_hi_m"].size != n or arrays["disp_nominal_m"].size != n:
+            raise ParameterError(
+                f"{owner}: disp_lo_m, disp_hi_m, disp_nominal_m must have the same length, got "
+                f"{n}, {arrays['disp_hi_m'].size}, {arrays['disp_nominal_m'].size}"
+            )
+        if np.any(arrays["disp_lo_m"] > arrays["disp_hi_m"]):
+            raise ParameterError(f"{owner}: disp_lo_m must be <= disp_hi_m element-wise")
+        periods = np.array(self.step_periods_s, dtype=float, ndmin=1)
+        if periods.size == 1 and n != 2:
+            periods = np.full(n - 1, periods[0])
+        if periods.shape != (n - 1,) or not np.all(np.isfinite(periods)):
+            raise ParameterError(f"{owner}.step_periods_s must be a scalar or have shape ({n - 1},), got {self.step_periods_s!r}")
+        if np.any(periods < self.T_ds_s - 1e-12):
+            raise ParameterError(f"{owner}.step_periods_s must all be >= T_ds_s ({self.T_ds_s}), got {periods}")
+        if self.preview_horizon_s < self.control_horizon_s - 1e-12:
+            raise ParameterError(
+                f"{owner}.preview_horizon_s ({self.preview_horizon_s}) must be >= control_horizon_s ({self.control_horizon_s})"
+            )
+        for name in ("control_horizon_s", "preview_horizon_s"):
+            ratio = getattr(self, name) / self.sampling_period_s
+            if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+                raise ParameterError(
+                    f"{owner}.{name} ({getattr(self, name)}) must be a whole multiple of sampling_period_s ({self.sampling_period_s})"
+                )
+        if self.tail_anchor not in TAIL_ANCHORS:
+            raise ParameterError(f"{owner}.tail_anchor must be one of {', '.join(TAIL_ANCHORS)}; got {self.tail_anchor!r}")
+        for name, arr in arrays.items():
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        periods.setflags(write=False)
+        object.__setattr__(self, "step_periods_s", periods)
+        offsets = np.concatenate(([0.0], np.cumsum(periods)))
+        offsets.setflags(write=False)
+        object.__setattr__(self, "_ramp_offsets_s", offsets)
+        object.__setattr__(self, "_reach_hi", arrays["disp_hi_m"] - arrays["disp_nominal_m"])
+        object.__setattr__(self, "_reach_lo", arrays["disp_lo_m"] - arrays["disp_nominal_m"])
+        eta, T_c, h = self.eta, self.control_horizon_s, self.zmp_half_width_m
+        lam = math.exp(-eta * self.sampling_period_s)
+        w0 = 1.0 - (1.0 - lam) / (eta * self.sampling_period_s)
+        mu_c = math.exp(-eta * T_c)
+        box = h * (1.0 - mu_c) - self.restriction_rate_mps * ((1.0 - mu_c) / eta - T_c * mu_c)
+        # Constant parts of x_u^M and x_u^m: p_0 + w0 (x_z^k - p_0 -/+ h) +/- box.
+        p0, xz = self.support_pos_m, self.zmp_pos_m
+        consts = {"w0": w0, "upper": p0 + w0 * (xz - p0 - h) + box, "lower": p0 + w0 * (xz - p0 + h) - box}
+        object.__setattr__(self, "_consts", consts)
+
+    @property
+    def num_footsteps(self) -> int:
+        """N, the number of footsteps described."""
+        return int(self.disp_lo_m.size)
+
+    @property
+    def ramp_offsets_s(self) -> np.ndarray:
+        """a_j − a_1 [s], shape (N,)."""
+        return self._ramp_offsets_s  # type: ignore[attr-defined]
+
+    @property
+    def C(self) -> int:
+        """Number of control-horizon samples."""
+        return int(round(self.control_horizon_s / self.sampling_period_s))
+
+    @property
+    def P(self) -> int:
+        """Number of preview samples."""
+        return int(round(self.preview_horizon_s / self.sampling_period_s))
+
+
+def _bounds_core(
+    inp: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray, cutoff_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form bounds for first-ramp starts a_1 (M,) and decision cut-offs (M,)."""
+    eta, T_ds = inp.eta, inp.T_ds_s
+    a = first_ramp_start_s[:, None] + inp.ramp_offsets_s  # (M, N)
+    # G_j = rho_j(0) + (e^{-eta max(a,0)} - e^{-eta min(a+T_ds, T_p)})_+ / (eta T_ds)
+    G = np.exp(-eta * np.maximum(a, 0.0))
+    G -= np.exp(-eta * np.minimum(a + T_ds, inp.preview_horizon_s))
+    np.maximum(G, 0.0, out=G)
+    G *= 1.0 / (eta * T_ds)
+    landed = bool(first_ramp_start_s.min() < 0.0)
+    if landed:
+        rho0 = np.clip(a * (-1.0 / T_ds), 0.0, 1.0)
+        G += rho0
+    cut = cutoff_s[:, None]
+    decision = (a > 0.0) & (a < cut)
+    nominal = inp.disp_nominal_m
+    if inp.tail_anchor == "candidate":
+        # G of the first footstep at or after the cut-off (0 if none; G is non-increasing in j):
+        # it carries the jump from the last decision footstep to the first absolute candidate.
+        G_next = np.max(np.where(a >= cut, G, 0.0), axis=1, keepdims=True)
+        gamma = np.where(decision, G - G_next, 0.0)
+    else:
+        gamma = np.where(decision, G, 0.0)
+    k = inp._consts  # type: ignore[attr-defined]
+    centre = G @ nominal
+    if landed:
+        centre -= k["w0"] * (rho0 @ nominal)  # c_0 = p_0 + sum_j rho_j(0) Δ_j
+    upper = centre + gamma @ inp._reach_hi + k["upper"]  # type: ignore[attr-defined]
+    lower = centre + gamma @ inp._reach_lo + k["lower"]  # type: ignore[attr-defined]
+    return lower, upper
+
+
+def feasibility_bounds_at(
+    inputs: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray | float
+) -> tuple[Any, Any]:
+    """Exact feasibility bounds (x_u^m, x_u^M) for given start times of the first DS ramp.
+
+    Parameters
+    ----------
+    inputs : AxisFeasibilityInputs
+    first_ramp_start_s : float or ndarray, shape (M,)
+        a_1 = t_s − t_k [s], the time from now to the touchdown that starts DS ramp 1. May be
+        <= 0 (in double support, footstep 1 landed and fixed). Exact (equal to the QP's region)
+        when a_1 and all ramp ends lie on the δ grid; between grid points it is the
+        continuous-time interpolation.
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (M,) (or float for a scalar input)
+        x_u^m and x_u^M [m], to be compared with the shifted DCM x_c + ẋ_c/η + w̃/η².
+    """
+    a1 = np.asarray(first_ramp_start_s, dtype=float)
+    scalar = a1.ndim == 0
+    a1 = np.atleast_1d(a1)
+    if a1.ndim != 1 or not np.all(np.isfinite(a1)):
+        raise ParameterError(f"first_ramp_start_s must be finite, scalar or 1-D, got {first_ramp_start_s!r}")
+    cutoff = np.full(a1.shape, inputs.control_horizon_s - _CLASSIFY_TOL_S)
+    lower, upper = _bounds_core(inputs, a1, cutoff)
+    if scalar:
+        return float(lower[0]), float(upper[0])
+    return lower, upper
+
+
+def feasibility_bounds(
+    inputs: AxisFeasibilityInputs, delta_lambda: np.ndarray | float
+) -> tuple[Any, Any]:
+    """Exact feasibility bounds as functions of Δλ = exp(−η (t_s − t_k)) ∈ (0, 1].
+
+    Parameters
+    ----------
+    inputs : AxisFeasibilityInputs
+    delta_lambda : float or ndarray, shape (M,)
+        Encoded time to touchdown (1 means touchdown now).
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (M,) (float for scalar input)
+        x_u^m(Δλ), x_u^M(Δλ) [m].
+    """
+    dl = np.asarray(delta_lambda, dtype=float)
+    if np.any(~np.isfinite(dl)) or np.any(dl <= 0) or np.any(dl > 1):
+        raise ParameterError(f"delta_lambda must lie in (0, 1], got {delta_lambda!r}")
+    return feasibility_bounds_at(inputs, -np.log(dl) / inputs.eta)
+
+
+def feasibility_breakpoints(inputs: AxisFeasibilityInputs) -> tuple[np.ndarray, np.ndarray]:
+    """Values of Δλ where the bounds change slope or jump.
+
+    Returns
+    -------
+    jumps : ndarray
+        Δλ at which a footstep's ramp starts exactly at T_c (it becomes a decision variable for
+        larger Δλ); the bounds jump there.
+    kinks : ndarray
+        Δλ at which a ramp start or end crosses T_p (slope changes).
+    All values in (0, 1]; unsorted.
+    """
+    o = inputs.ramp_offsets_s
+    eta = inputs.eta
+    a_jump = inputs.control_horizon_s - o
+    a_kink = np.concatenate((inputs.preview_horizon_s - o, inputs.preview_horizon_s - inputs.T_ds_s - o))
+    jumps = np.exp(-eta * a_jump[a_jump > 0])
+    kinks = np.exp(-eta * a_kink[a_kink > 0])
+    return jumps, kinks
+
+
+@dataclass(frozen=True)
+class AffineFeasibility:
+    """Affine inner estimate of the feasibility region on [Δλ_min, Δλ_max] (spec §13.2).
+
+    ``lower_offset_m + lower_slope_m Δλ >= x_u^m(Δλ)`` and
+    ``upper_offset_m + upper_slope_m Δλ <= x_u^M(Δλ)`` for every Δλ in the interval.
+    """
+
+    lower_offset_m: float
+    lower_slope_m: float
+    upper_offset_m: float
+    upper_slope_m: float
+    delta_lambda_min: float
+    delta_lambda_max: float
+
+    def lower(self, delta_lambda: np.ndarray | float) -> np.ndarray | float:
+        """Estimated lower bound [m] at Δλ."""
+        return self.lower_offset_m + self.lower_slope_m * np.asarray(delta_lambda)
+
+    def upper(self, delta_lambda: np.ndarray | float) -> np.ndarray | float:
+        """Estimated upper bound [m] at Δλ."""
+        return self.upper_offset_m + self.upper_slope_m * np.asarray(delta_lambda)
+
+
+def _best_line_below(x: np.ndarray, y: np.ndarray, anchor: float) -> tuple[float, float]:
+    """Line a + b x below all points (x_i, y_i), maximal at ``anchor``.
+
+    That line is the edge of the lower convex hull of the points above ``anchor``; the points
+    are few (interval ends and breakpoints), so the hull is built in plain Python.
+    """
+    pts: dict[float, float] = {}
+    for xi, yi in zip(x.tolist(), y.tolist()):
+        pts[xi] = min(yi, pts.get(xi, math.inf))
+    xs = sorted(pts)
+    if len(xs) == 1:
+        return pts[xs[0]] - _INNER_SAFETY_M, 0.0
+    hull: list[tuple[float, float]] = []
+    for xi in xs:
+        yi = pts[xi]
+        while len(hull) >= 2:
+            (x1, y1), (x2, y2) = hull[-2], hull[-1]
+            if (x2 - x1) * (yi - y1) - (y2 - y1) * (xi - x1) <= 0.0:  # hull[-1] not strictly below
+                hull.pop()
+            else:
+                break
+        hull.append((xi, yi))
+    edge = next((i for i in range(len(hull) - 1) if anchor <= hull[i + 1][0]), len(hull) - 2)
+    (x1, y1), (x2, y2) = hull[edge], hull[edge + 1]
+    b = (y2 - y1) / (x2 - x1)
+    a = y1 - b * x1
+    # Exactly valid at every point (rounding), with a tiny safety against float noise.
+    a -= max(0.0, max(a + b * xi - yi for xi, yi in pts.items())) + _INNER_SAFETY_M
+    return a, b
+
+
+def affine_inner_estimate(
+    inputs: AxisFeasibilityInputs,
+    delta_lambda_min: float,
+    delta_lambda_max: float,
+    delta_lambda_anchor: float | None = None,
+) -> AffineFeasibility:
+    """Tightest affine inner approximation of the feasibility bounds on an interval of Δλ.
+
+    The exact bounds are piecewise affine in Δλ; a line is below x_u^M on the interval iff it
+    is below it at the interval ends and at both one-sided limits of every breakpoint inside.
+    Among those lines this returns the one that is largest at ``delta_lambda_anchor`` (the
+    lower convex hull there), and symmetrically for x_u^m. Cost: one vectorised evaluation of
+    the closed form at a handful of points.
+
+    Parameters
+    ----------
+    inputs : AxisFeasibilityInputs
+    delta_lambda_min, delta_lambda_max : float
+        Admissible interval, 0 < min <= max <= 1.
+    delta_lambda_anchor : float, optional
+        Where the estimate should be tightest (e.g. the nominal Δλ); default the midpoint.
+        Clipped to the interval.
+
+    Returns
+    -------
+    AffineFeasibility
+    """
+    lo, hi = float(delta_lambda_min), float(delta_lambda_max)
+    if not (0.0 < lo <= hi <= 1.0):
+        raise ParameterError(f"need 0 < delta_lambda_min <= delta_lambda_max <= 1, got {lo}, {hi}")
+    anchor = 0.5 * (lo + hi) if delta_lambda_anchor is None else min(max(float(delta_lambda_anchor), lo), hi)
+    jumps, kinks = feasibility_breakpoints(inputs)
+    jumps = jumps[(jumps >= lo) & (jumps <= hi)]
+    kinks = kinks[(kinks > lo) & (kinks < hi)]
+    pts = np.concatenate(([lo, hi], kinks, jumps, jumps))
+    cut = inputs.control_horizon_s
+    cutoff = np.full(pts.shape, cut - _CLASSIFY_TOL_S)
+    cutoff[pts.size - jumps.size:] = cut + _CLASSIFY_TOL_S  # right limits: the footstep is a decision
+    lower, upper = _bounds_core(inputs, -np.log(pts) / inputs.eta, cutoff)
+    a_up, b_up = _best_line_below(pts, upper, anchor)
+    a_lo_neg, b_lo_neg = _best_line_below(pts, -lower, anchor)
+    return AffineFeasibility(
+        lower_offset_m=-a_lo_neg,
+        lower_slope_m=-b_lo_neg,
+        upper_offset_m=a_up,
+        upper_slope_m=b_up,
+        delta_lambda_min=lo,
+        delta_lambda_max=hi,
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# Independent check: the QP's constraint structure as an LP.
+
+
+@dataclass(frozen=True)
+class AxisProgram:
+    """The per-axis IS-MPC constraint set at one timing, in LP form (for verification).
+
+    Variables v = (ẋ_z^k … ẋ_z^{k+C−1} [m/s], positions of the D decision footsteps [m]).
+
+    Attributes
+    ----------
+    A_ub : ndarray, shape (2C + 2D, C + D)
+    b_ub : ndarray, shape (2C + 2D,)
+        ZMP rows (both sides, restricted) and kinematic rows: ``A_ub v <= b_ub``.
+    dcm_row : ndarray, shape (C + D,)
+    dcm_offset_m : float
+        The stability constraint reads ``x̄_u = dcm_row @ v + dcm_offset_m``.
+    num_zmp_vel : int
+        C.
+    decision_index : ndarray of int, shape (D,)
+        Indices (0-based, footstep j = index + 1) of the decision footsteps.
+    """
+
+    A_ub: np.ndarray
+    b_ub: np.ndarray
+    dcm_row: np.ndarray
+    dcm_offset_m: float
+    num_zmp_vel: int
+    decision_index: np.ndarray
+
+
+def zmp_row_weights(eta: float, sampling_period_s: float, control_horizon_s: float) -> np.ndarray:
+    r"""Weight of each ZMP row in the feasibility bounds.
+
+    Written with the ZMPs :math:`z_i = x_z^{k+i}` (i = 1..C) instead of their velocities, the
+    stability constraint reads :math:`\bar x_u = \text{const} + \sum_i \kappa_i z_i` with
+
+    .. math::
+
+        \kappa_i = \frac{(1-\lambda)^2\lambda^{i-1}}{\eta\delta}\ (i < C),\qquad
+        \kappa_C = \frac{(1-\lambda)\lambda^{C-1}}{\eta\delta} - \lambda^C,
+
+    all >= 0, summing to :math:`1 - w_0 - \mu_c`. A known offset :math:`o_i` of the constrained
+    point from row i's ZMP (the box bounds :math:`z_i + o_i`) therefore moves both feasibility
+    bounds by :math:`-\sum_i \kappa_i o_i` (``docs/derivations.md`` §5).
+
+    Parameters
+    ----------
+    eta : float
+        η [1/s].
+    sampling_period_s, control_horizon_s : float
+        δ and T_c [s]; T_c a whole multiple of δ.
+
+    Returns
+    -------
+    ndarray, shape (C,)
+        κ_1 .. κ_C, for the rows at t_{k+1} .. t_{k+C} [-].
+    """
+    _positive("zmp_row_weights", eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
+    ratio = control_horizon_s / sampling_period_s
+    if abs(ratio - round(ratio)) > 1e-6:
+        raise ParameterError(
+            f"zmp_row_weights: control_horizon_s ({control_horizon_s}) must be a whole multiple of "
+            f"sampling_period_s ({sampling_period_s})"
+        )
+    C = int(round(ratio))
+    lam = math.exp(-eta * sampling_period_s)
+    scale = (1.0 - lam) / (eta * sampling_period_s)
+    weights = scale * (1.0 - lam) * lam ** np.arange(C)
+    weights[-1] = scale * lam ** (C - 1) - lam**C
+    return weights
+
+
+def build_axis_program(
+    inputs: AxisFeasibilityInputs, first_ramp_start_s: float, zmp_offset_m: np.ndarray | None = None
+) -> AxisProgram:
+    """Build the per-axis QP constraint set (sampled rows, position-form stability) as an LP.
+
+    Written from the QP's definition (spec §2.3, §3.2, §4, §5, §6.3), not from the closed
+    form, so that the two can be compared.
+
+    Parameters
+    ----------
+    inputs : AxisFeasibilityInputs
+    first_ramp_start_s : float
+        a_1 = t_s − t_k [s].
+    zmp_offset_m : ndarray, shape (C,), optional
+        Offset o_i of the constrained point from the ZMP on the rows at t_{k+1} .. t_{k+C}
+        [m]: the box bounds x_z + o (as ``IsmpcQp.build``'s ``zmp_offset_m`` on one axis).
+    """
+    d = inputs.sampling_period_s
+    eta = inputs.eta
+    C, P = inputs.C, inputs.P
+    N = inputs.num_footsteps
+    a = float(first_ramp_start_s) + inputs.ramp_offsets_s
+    decision = np.flatnonzero((a > 0.0) & (a < inputs.control_horizon_s - _CLASSIFY_TOL_S))
+    D = decision.size
+    # Footstep positions p_0..p_N as affine functions of the decision positions q: p = P0 + Pq q.
+    P0 = np.zeros(N + 1)
+    Pq = np.zeros((N + 1, D))
+    P0[0] = inputs.support_pos_m
+    candidates = inputs.support_pos_m + np.concatenate(([0.0], np.cumsum(inputs.disp_nominal_m)))
+    last_dec = int(decision[-1]) + 1 if D else N + 1  # footstep number of the last decision
+    for j in range(1, N + 1):
+        if D and decision[0] + 1 <= j <= last_dec:
+            Pq[j, j - 1 - int(decision[0])] = 1.0
+        elif j > last_dec and inputs.tail_anchor == "candidate":
+            P0[j] = candidates[j]
+        else:  # landed footsteps, plans without decisions, tails anchored to the decision
+            P0[j] = P0[j - 1] + inputs.disp_nominal_m[j - 1]
+            Pq[j] = Pq[j - 1]
+    # Centre at sample times t_{k+i}, i = 0..P: c = p_0 + sum_j rho_j(t) (p_j - p_{j-1}).
+    t = d * np.arange(P + 1)
+    rho = np.clip((t[:, None] - a[None, :]) / inputs.T_ds_s, 0.0, 1.0)  # (P+1, N)
+    c0 = P0[0] + rho @ np.diff(P0)  # (P+1,)
+    cq = rho @ np.diff(Pq, axis=0)  # (P+1, D)
+    # ZMP rows at t_{k+i+1}: z = x_z + d * L u.
+    L = d * np.tril(np.ones((C, C)))
+    half = inputs.zmp_half_width_m - inputs.restriction_rate_mps * d * np.arange(1, C + 1)
+    A_zmp_up = np.hstack((L, -cq[1:C + 1]))
+    b_zmp_up = half + c0[1:C + 1] - inputs.zmp_pos_m
+    A_zmp_dn = np.hstack((-L, cq[1:C + 1]))
+    b_zmp_dn = half - c0[1:C + 1] + inputs.zmp_pos_m
+    if zmp_offset_m is not None:
+        offset = np.asarray(zmp_offset_m, dtype=float)
+        if offset.shape != (C,) or not np.all(np.isfinite(offset)):
+            raise ParameterError(f"zmp_offset_m must be a finite array of shape ({C},), got shape {offset.shape}")
+        b_zmp_up = b_zmp_up - offset
+        b_zmp_dn = b_zmp_dn + offset
+    # Kinematic rows: lo_j <= p_j - p_{j-1} <= hi_j for decision footsteps.
+    A_kin, b_kin = [], []
+    for j0 in decision.tolist():
+        j = j0 + 1
+        row = np.concatenate((np.zeros(C), Pq[j] - Pq[j - 1]))
+        off = P0[j] - P0[j - 1]
+        A_kin += [row, -row]
+        b_kin += [inputs.disp_hi_m[j0] - off, -(inputs.disp_lo_m[j0] - off)]
+    A_ub = np.vstack([A_zmp_up, A_zmp_dn] + ([np.array(A_kin)] if A_kin else []))
+    b_ub = np.concatenate([b_zmp_up, b_zmp_dn, np.array(b_kin)])
+    # Stability (spec §6.3): x̄_u = (1 − λ^C) x_z^k + Σ_i [(1−λ)λ^i/η − δλ^C] u_i + T.
+    lam = math.exp(-eta * d)
+    coef_u = (1 - lam) * lam ** np.arange(C) / eta - d * lam**C
+    i = np.arange(C, P)
+    beta = (1 - lam) / (eta * d) - lam
+    # T = Σ_{i=C}^{P−1} λ^i [(1−λ) x̃^i + β (x̃^{i+1} − x̃^i)] + λ^P x̃^P, x̃^i = c0_i + cq_i q.
+    wt = np.zeros(P + 1)
+    wt[i] += lam**i * (1 - lam - beta)
+    wt[i + 1] += lam**i * beta
+    wt[P] += lam**P
+    dcm_row = np.concatenate((coef_u, wt @ cq))
+    dcm_offset = (1 - lam**C) * inputs.zmp_pos_m + float(wt @ c0)
+    return AxisProgram(A_ub=A_ub, b_ub=b_ub, dcm_row=dcm_row, dcm_offset_m=dcm_offset, num_zmp_vel=C,
+                       decision_index=decision)
+
+
+def feasibility_bounds_lp(
+    inputs: AxisFeasibilityInputs, first_ramp_start_s: float, zmp_offset_m: np.ndarray | None = None
+) -> tuple[float, float]:
+    """Feasibility bounds by linear programming on :func:`build_axis_program` (verification;
+    ``zmp_offset_m`` as there).
+
+    Returns
+    -------
+    lower, upper : float
+        min and max of the shifted DCM over the QP's constraint set [m].
+
+    Raises
+    ------
+    SolverError
+        If the LP solver fails (e.g. the restricted box is empty).
+    """
+    prog = build_axis_program(inputs, first_ramp_start_s, zmp_offset_m)
+    out = []
+    for sign in (1.0, -1.0):
+        res = scipy.optimize.linprog(sign * prog.dcm_row, A_ub=prog.A_ub, b_ub=prog.b_ub,
+                                     bounds=(None, None), method="highs",
+                                     options={"primal_feasibility_tolerance": 1e-10,
+                                              "dual_feasibility_tolerance": 1e-10})
+        if res.status != 0:
+            raise SolverError(f"feasibility LP failed: {res.message}", problem=prog, exitflag=res.status)
+        out.append(sign * res.fun + prog.dcm_offset_m)
+    return out[0], out[1]
+
+
+def straight_gait_inputs(
+    axis: str,
+    *,
+    eta: float,
+    sampling_period_s: float,
+    control_horizon_s: float,
+    preview_horizon_s: float,
+    T_ss_s: float,
+    T_ds_s: float,
+    num_footsteps: int,
+    zmp_box_m: float,
+    kin_box_m: float,
+    step_length_m: float = 0.0,
+    foot_spacing_m: float = 0.0,
+    next_foot_sign: int = 1,
+    support_pos_m: float = 0.0,
+    zmp_pos_m: float | None = None,
+    restriction_rate_mps: float = 0.0,
+    tail_anchor: str = "candidate",
+) -> AxisFeasibilityInputs:
+    """Inputs for a regular straight gait along one axis (θ ≡ 0), in the support-foot frame.
+
+    Sagittal (``axis="x"``): every candidate displacement is ``step_length_m`` and the
+    kinematic bounds are ±``kin_box_m``/2 (spec §5). Coronal (``axis="y"``): footstep j
+    has side s_j = ``next_foot_sign`` · (−1)^{j−1} (+1 left), candidate displacement s_j ℓ and
+    bounds s_j ℓ ∓ ``kin_box_m``/2.
+
+    Parameters
+    ----------
+    axis : str
+        ``"x"`` or ``"y"``.
+    eta, sampling_period_s, control_horizon_s, preview_horizon_s : float
+        η [1/s], δ, T_c, T_p [s].
+    T_ss_s, T_ds_s : float
+        Nominal single and double support [s] of the later steps.
+    num_footsteps : int
+        N, footsteps after the current support.
+    zmp_box_m, kin_box_m : float
+        Full sides d_z and d_a along the axis [m].
+    step_length_m : float
+        Sagittal candidate displacement [m] (x only).
+    foot_spacing_m : float
+        ℓ [m] (y only).
+    next_foot_sign : int
+        +1 if footstep 1 (the swing foot) is a left foot, −1 if right (y only).
+    support_pos_m : float
+        p_0 [m].
+    zmp_pos_m : float, optional
+        x_z^k [m]; default the support position.
+    restriction_rate_mps : float
+        r [m/s].
+    tail_anchor : str
+        See :class:`AxisFeasibilityInputs`.
+    """
+    if axis not in ("x", "y"):
+        raise ParameterError(f"axis must be 'x' or 'y', got {axis!r}")
+    if not isinstance(num_footsteps, (int, np.integer)) or num_footsteps < 1:
+        raise ParameterError(f"num_footsteps must be an integer >= 1, got {num_footsteps!r}")
+    if next_foot_sign not in (1, -1):
+        raise ParameterError(f"next_foot_sign must be +1 or -1, got {next_foot_sign!r}")
+    if axis == "x":
+        nominal: np.ndarray = np.full(num_footsteps, float(step_length_m))
+        centre = np.zeros(num_footsteps)
+    else:
+        sides = next_foot_sign * (-1.0) ** np.arange(num_footsteps)
+        nominal = np.asarray(sides * foot_spacing_m, dtype=float)
+        centre = nominal
+    return AxisFeasibilityInputs(
+        support_pos_m=support_pos_m,
+        zmp_pos_m=support_pos_m if zmp_pos_m is None else zmp_pos_m,
+        zmp_half_width_m=zmp_box_m / 2,
+        restriction_rate_mps=restriction_rate_mps,
+        disp_lo_m=centre - kin_box_m / 2,
+        disp_hi_m=centre + kin_box_m / 2,
+        disp_nominal_m=nominal,
+        T_ds_s=T_ds_s,
+        step_periods_s=T_ss_s + T_ds_s,
+        eta=eta,
+        sampling_period_s=sampling_period_s,
+        control_horizon_s=control_horizon_s,
+        preview_horizon_s=preview_horizon_s,
+        tail_anchor=tail_anchor,
+    )

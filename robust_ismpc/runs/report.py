@@ -1,0 +1,83 @@
+"""``summary.json`` metrics computed from a :class:`~robust_ismpc.runs.trace.Trace`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .trace import Trace
+
+
+def timing_stats(values_ms: np.ndarray) -> dict:
+    """Median, 99th percentile and maximum of a timing series [ms] (NaNs ignored)."""
+    v = np.asarray(values_ms, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"median": None, "p99": None, "max": None}
+    return {
+        "median": round(float(np.median(v)), 4),
+        "p99": round(float(np.percentile(v, 99)), 4),
+        "max": round(float(np.max(v)), 4),
+    }
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, wall_time_s: float | None = None) -> dict:
+    """The run summary (the fields named by the issues, plus run metadata).
+
+    Parameters
+    ----------
+    trace : Trace
+        Recorded run; ``trace.meta`` supplies robot, sim, controller, modules and inputs.
+    fell, failure : bool, str or None
+        Outcome.
+    duration_s : float
+        Simulated time actually run [s].
+    wall_time_s : float, optional
+        Wall-clock time of the loop, for the real-time factor [s].
+    """
+    meta = trace.meta
+    com = trace["com_m"]
+    n = len(trace)
+    distance = float(np.hypot(*(com[-1] - com[0]))) if n else 0.0
+    touchdowns = trace.footstep_touchdown_s[2:]
+    steps_taken = int(np.count_nonzero(touchdowns <= duration_s + 1e-9))
+    infeasible = trace["infeasible"]
+    adapted = trace["timing_adapted"]
+    tts = trace["time_to_step_s"]
+    adapted_mask = np.nan_to_num(adapted) > 0
+    min_tts = float(np.min(tts[adapted_mask])) if adapted_mask.any() else None
+    w_est = trace["disturbance_est_mps2"]
+    violation = trace["zmp_violation_m"]
+    summary = {
+        "robot": meta.get("robot"),
+        "robot_name": meta.get("robot_name", meta.get("robot")),
+        "sim": meta.get("sim"),
+        "whole_body": meta.get("whole_body", "servo") if meta.get("sim") == "mujoco" else None,
+        "controller": meta.get("controller"),
+        "modules": list(meta.get("modules", [])),
+        "fell": bool(fell),
+        "failure": failure,
+        "duration_s": round(float(duration_s), 6),
+        "distance_m": round(distance, 6),
+        "steps_taken": steps_taken,
+        "qp_infeasible_count": int(np.nansum(infeasible)) if n else 0,
+        "max_zmp_violation_m": round(float(np.nanmax(violation)), 6) if n and np.isfinite(violation).any() else None,
+        "mpc_solve_ms": timing_stats(trace["solve_ms"]),
+        "mpc_build_ms": timing_stats(trace["build_ms"]),
+        "cycle_ms": timing_stats(trace["cycle_ms"]),
+        "timing_adaptations": int(meta.get("timing_adaptations", int(np.nansum(adapted)) if n else 0)),
+        "min_time_to_step_s": None if min_tts is None else round(min_tts, 4),
+        "disturbance_estimate_final": [round(float(v), 6) for v in w_est[-1]] if n else [0.0, 0.0],
+    }
+    if wall_time_s is not None and wall_time_s > 0:
+        summary["wall_time_s"] = round(wall_time_s, 3)
+        summary["realtime_factor"] = round(duration_s / wall_time_s, 3)
+    for key in ("seed", "command", "forces", "pushes", "delta_max_mps2", "scenario"):
+        if key in meta:
+            summary[key] = meta[key]
+    return summary

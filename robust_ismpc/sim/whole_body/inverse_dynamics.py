@@ -1,0 +1,434 @@
+r"""Torque control of a full robot: an inverse-dynamics QP that realises the gait reference.
+
+With ``LoopSettings.torque_control`` the joint actuators become torque motors and, at every
+physics step, one QP over the joint accelerations :math:`\ddot q` (floating base included) and
+the two sole wrenches :math:`W_L, W_R` (force and moment about the sole centre, world frame)
+
+.. math::
+
+    \min \sum_k w_k \lVert A_k \ddot q - b_k \rVert^2 + \epsilon \lVert x \rVert^2
+    \quad\text{s.t.}\quad
+    M_b \ddot q + h_b = J_{L,b}^T W_L + J_{R,b}^T W_R,\quad
+    J_s \ddot q + \dot J_s \dot q = -k_c v_s \ (\text{soles in contact}),
+
+:math:`W = 0` for a swinging sole, each contact wrench inside its cone (normal force
+>= ``min_normal_force_n``, friction pyramid, centre of pressure inside the sole rectangle shrunk
+by ``cop_margin``, bounded torsion) and the joint torques
+:math:`\tau = (M\ddot q + h - J_L^T W_L - J_R^T W_R)_j` within the joints' limits. The tasks are
+the CoM acceleration (reference acceleration plus PD on the measured CoM), the swinging sole's
+pose, the root orientation, and a low-weight posture task towards the whole-body IK
+configuration (which carries the arms, the torso and the leg geometry of the reference). Task
+targets are placed relative to the measured stance sole(s), so the drift of the real feet from
+the plan does not enter. The torques of the solution are sent to the motors.
+
+Unlike the position servos playing back the IK joints, this controller moves the centre of
+pressure to keep the CoM on its reference: it is the balance feedback the servo loop lacks
+(docs/robots.md, "Torque control"). The QP is dense (nv + 12 variables) and solved with DAQP.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, fields
+
+import daqp
+import mujoco
+import numpy as np
+
+from ...core.params import check_nonnegative
+from ...core.reference import GaitReference
+from ...exceptions import ParameterError, SolverError
+from ..model import compile_model
+from ..robot import MujocoRobot
+from .ik import ActuatorMap
+
+SIDES = ("left", "right")
+
+
+def actuator_torque_limits_nm(model: mujoco.MjModel) -> np.ndarray:
+    """The joint torque interval each actuator of ``model`` can apply, shape (nu, 2) [N m].
+
+    The intersection, through the actuator's gear, of its force range (if force-limited), a
+    motor's control range times its gain (if control-limited; a position servo's control range is
+    an angle, not a torque) and its joint's actuator force range (if limited); ±inf where nothing
+    limits it.
+    """
+    limits = np.tile([-np.inf, np.inf], (model.nu, 1))
+    for a in range(model.nu):
+        gear = float(model.actuator_gear[a, 0])
+        gain = float(model.actuator_gainprm[a, 0])
+        motor = (int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_NONE)
+                 or not np.any(model.actuator_biasprm[a, :3]))
+        ranges = []
+        if model.actuator_forcelimited[a]:
+            ranges.append(model.actuator_forcerange[a] * gear)
+        if motor and model.actuator_ctrllimited[a]:
+            ranges.append(model.actuator_ctrlrange[a] * gain * gear)
+        joint = int(model.actuator_trnid[a, 0])
+        if model.jnt_actfrclimited[joint]:
+            ranges.append(model.jnt_actfrcrange[joint])
+        for bound in ranges:
+            low, high = float(min(bound)), float(max(bound))
+            limits[a] = max(limits[a, 0], low), min(limits[a, 1], high)
+    return limits
+
+
+@dataclass(frozen=True)
+class TorqueControlSettings:
+    """Gains and weights of the inverse-dynamics QP.
+
+    Attributes
+    ----------
+    com_kp, com_kd : float
+        PD gains of the CoM task [1/s²], [1/s] (measured CoM against the reference).
+    foot_kp, foot_kd : float
+        PD gains of the swinging sole's position and orientation [1/s²], [1/s]; the sole's
+        reference acceleration (a finite difference of the reference velocities of successive
+        control ticks) is fed forward. With 100 /s² and 20 /s and no feedforward every G1 foot
+        landed about 2 cm too far forward (41 cm after a 20 s walk at 0.2 m/s); now 5 cm behind
+        after 20 s.
+    root_kp, root_kd : float
+        PD gains of the root orientation towards the IK configuration's [1/s²], [1/s].
+    posture_kp, posture_kd : float
+        PD gains of the joints towards the IK configuration [1/s²], [1/s].
+    contact_damping : float
+        k_c: a sole in contact is asked for the acceleration ``-k_c v`` [1/s].
+    com_weight, foot_weight, root_weight, posture_weight : float
+        Task weights (the CoM and the swinging sole dominate).
+    friction : float
+        Friction coefficient of the contact pyramid.
+    cop_margin : float
+        Fraction of the sole half-length and half-width the centre of pressure may use, in (0, 1].
+    torsion_m : float
+        Largest |moment about the sole normal| per newton of normal force [m].
+    min_normal_force_n : float
+        Smallest normal force of a sole in contact [N].
+    regularisation : float
+        ε, small weight on every variable.
+    friction_smoothing_radps : float
+        The joints' dry friction (MuJoCo ``frictionloss``, which the QP's dynamics leave out) is
+        compensated by ``τ_f tanh(v / v_s)`` with ``v`` the joint velocity the solution reaches
+        at the end of the physics step and ``v_s`` this value [rad/s]; 0 switches the
+        compensation off. Without it G1's 0.3 N m joint friction left 40 % of a small lateral
+        CoM acceleration unrealised in double support, and a closed loop on the measured CoM
+        drifted to the edge of the ZMP box within 1.4 s (docs/closed-loop.md).
+    momentum_weight : float
+        Weight of the centroidal angular-momentum task; 0 switches it off. The task asks for the
+        rate ``-momentum_damping * L`` and is scaled by ``1 / (m g)``, so that its error reads as
+        the shift of the centre of pressure it causes [m]. Without it OP3 had 14 infeasible MPC
+        cycles in 20 s of undisturbed walking, with it none (docs/closed-loop.md).
+    momentum_damping : float
+        Rate at which the task damps the centroidal angular momentum [1/s].
+    """
+
+    com_kp: float = 50.0
+    com_kd: float = 14.0
+    foot_kp: float = 400.0
+    foot_kd: float = 40.0
+    root_kp: float = 100.0
+    root_kd: float = 20.0
+    posture_kp: float = 400.0
+    posture_kd: float = 40.0
+    contact_damping: float = 10.0
+    com_weight: float = 1000.0
+    foot_weight: float = 10.0
+    root_weight: float = 1.0
+    posture_weight: float = 0.1
+    friction: float = 0.7
+    cop_margin: float = 0.9
+    torsion_m: float = 0.02
+    min_normal_force_n: float = 1.0
+    regularisation: float = 1e-6
+    friction_smoothing_radps: float = 0.02
+    momentum_weight: float = 1e4
+    momentum_damping: float = 10.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative("TorqueControlSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
+        if self.friction <= 0:
+            raise ParameterError(f"TorqueControlSettings.friction must be > 0, got {self.friction!r}")
+        if not 0 < self.cop_margin <= 1:
+            raise ParameterError(f"TorqueControlSettings.cop_margin must be in (0, 1], got {self.cop_margin!r}")
+
+
+def _rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Rotation vector (world frame) that turns ``current`` into ``target`` (3x3 matrices)."""
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, (target @ current.T).reshape(-1))
+    vec = np.empty(3)
+    mujoco.mju_quat2Vel(vec, quat, 1.0)
+    return vec
+
+
+def _back_in_time(pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, lead_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity ``lead_s`` before a reference point, at constant acceleration."""
+    return pos - lead_s * vel + 0.5 * lead_s**2 * acc, vel - lead_s * acc
+
+
+def _yaw_matrix(yaw_rad: float) -> np.ndarray:
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _state_index(model: mujoco.MjModel, scene: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Indices into the scene's ``qpos`` and ``qvel`` of every coordinate of ``model``, whose
+    joints the scene has under the same names (its free joint: the one of the same body)."""
+    qpos, qvel = [], []
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name:
+            k = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_JOINT, name)
+        else:
+            body = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_BODY, model.body(model.jnt_bodyid[j]).name)
+            k = int(scene.body_jntadr[body]) if body >= 0 else -1
+        if k < 0 or scene.jnt_type[k] != model.jnt_type[j]:
+            raise ParameterError(f"joint {name or j!r} of the robot is not in the simulated scene")
+        n_q = {0: 7, 1: 4}.get(int(model.jnt_type[j]), 1)
+        n_v = {0: 6, 1: 3}.get(int(model.jnt_type[j]), 1)
+        qpos += range(int(scene.jnt_qposadr[k]), int(scene.jnt_qposadr[k]) + n_q)
+        qvel += range(int(scene.jnt_dofadr[k]), int(scene.jnt_dofadr[k]) + n_v)
+    return np.array(qpos, dtype=int), np.array(qvel, dtype=int)
+
+
+class InverseDynamicsQp:
+    """Joint torques that realise a gait reference on a torque-controlled MuJoCo robot.
+
+    The QP uses a model of the robot alone (the robot file's), whose state is copied from the
+    simulated scene at every call: like a controller on a real robot it does not know the
+    objects of the scene (a bag hanging from an arm, a ball), which reach it only through the
+    disturbance estimate of the reference.
+
+    Parameters
+    ----------
+    robot : MujocoRobot
+        The robot in a simulation whose actuators are torque motors (``ctrl`` = torque).
+    actuators : ActuatorMap
+        Actuator ↔ joint indices of the simulation and IK models (the actuators' order is the
+        order of the returned torques).
+    settings : TorqueControlSettings
+    """
+
+    def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings) -> None:
+        self.settings = settings
+        self.scene_data = robot.data
+        self.model = copy.deepcopy(compile_model(robot.spec))
+        self.data = mujoco.MjData(self.model)
+        self.robot = MujocoRobot(robot.spec, self.model, self.data)
+        self._scene_qpos, self._scene_qvel = _state_index(self.model, robot.model)
+        self.actuators = actuators
+        model = self.model
+        own = ActuatorMap(model, model)  # the same actuators, indexed in the robot's own model
+        if own.sim_dof_index.shape != actuators.sim_dof_index.shape:
+            raise ParameterError("the simulated scene and the robot model have different actuators")
+        self._body = {s: robot.foot_body_id(s) for s in SIDES}
+        self._half_length = 0.5 * robot.spec.sole_length_m * settings.cop_margin
+        self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
+        self._root = robot.root_id
+        self._dof = own.sim_dof_index
+        self._qpos_index = own.sim_qpos_index
+        self._friction_nm = model.dof_frictionloss[self._dof].copy()
+        self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
+        nv = model.nv
+        self._M = np.zeros((nv, nv))
+        self._jac_com_prev: np.ndarray | None = None
+        self._ang_prev: np.ndarray | None = None
+        # reference sole velocities of the previous control tick, for the swing acceleration
+        self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
+        self._foot_acc = {side: np.zeros(3) for side in SIDES}
+        self.failures = 0
+        #: Cycles whose QP had no solution within the torque limits and was solved without them.
+        self.limit_relaxations = 0
+        self.last_torques_nm = np.zeros(len(self._dof))
+        #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
+        #: force then moment about the sole centre), for inspection and tests.
+        self.last_qacc: np.ndarray | None = None
+        self.last_wrenches: dict[str, np.ndarray] = {}
+
+    def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        m, d = self.model, self.data
+        jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jac(m, d, jp, jr, point, self._body[side])
+        jpd, jrd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jacDot(m, d, jpd, jrd, point, self._body[side])
+        return np.vstack([jp, jr]), np.vstack([jpd, jrd])
+
+    def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
+                ik_qacc: np.ndarray) -> np.ndarray:
+        """Motor torques for the current state, shape (nu,) [N m], in actuator order.
+
+        ``ik_qpos``, ``ik_qvel``, ``ik_qacc`` are the IK reference configuration and its finite-
+        difference velocity and acceleration (IK model indexing). Runs ``mj_forward`` first.
+        If DAQP reports a failure, the previous torques are returned and ``failures`` counts it.
+
+        Raises
+        ------
+        SolverError
+            After more than 50 failed solves in the run.
+        """
+        m, d, s = self.model, self.data, self.settings
+        scene = self.scene_data
+        d.qpos[:] = scene.qpos[self._scene_qpos]
+        d.qvel[:] = scene.qvel[self._scene_qvel]
+        d.time = scene.time
+        mujoco.mj_forward(m, d)
+        nv = m.nv
+        n = nv + 12
+        mujoco.mj_fullM(m, d, self._M)
+        M = self._M
+        # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
+        jac_com = np.zeros((3, nv))
+        mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        # the disturbance the plan was made for acts like a uniform field on the whole robot
+        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0])
+        bias = d.qfrc_bias - d.qfrc_passive - self.robot.mass_kg * (jac_com.T @ disturbance)
+        qvel = d.qvel
+        feet = {"left": reference.left_foot, "right": reference.right_foot}
+        if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
+            if self._foot_ref is not None and reference.t_s > self._foot_ref[0]:
+                dt = reference.t_s - self._foot_ref[0]
+                self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
+            self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
+        # the reference is the state at the end of the control period: compare it with the
+        # current state at the current time
+        lead = max(0.0, reference.t_s - float(d.time))
+        soles = {side: self.robot.sole_frame(side) for side in SIDES}
+        jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
+        stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
+        real_anchor = np.mean([soles[side][0] for side in stance], axis=0)
+        ref_anchor = np.mean([feet[side].pos_m for side in stance], axis=0)
+
+        eq_rows, eq_rhs = [], []
+        # floating-base rows of the dynamics
+        base = np.zeros((6, n))
+        base[:, :nv] = M[:6]
+        base[:, nv:nv + 6] = -jac["left"][0][:, :6].T
+        base[:, nv + 6:] = -jac["right"][0][:, :6].T
+        eq_rows.append(base)
+        eq_rhs.append(-bias[:6])
+        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
+        for side in SIDES:
+            J, Jdot = jac[side]
+            row = np.zeros((6, n))
+            row[:, :nv] = J
+            velocity = J @ qvel
+            if side in stance and feet[side].in_contact:
+                eq_rows.append(row)
+                eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
+                continue
+            foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
+            target = real_anchor + (foot_pos - ref_anchor)
+            linear = (self._foot_acc[side] + s.foot_kp * (target - soles[side][0])
+                      + s.foot_kd * (foot_vel - velocity[:3]))
+            angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
+                       - s.foot_kd * velocity[3:])
+            tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
+        # CoM (relative to the stance soles)
+        com = d.subtree_com[self._root]
+        com_vel = jac_com @ qvel
+        jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None else (jac_com - self._jac_com_prev) / m.opt.timestep
+        self._jac_com_prev = jac_com
+        com_pos, com_vel_ref = _back_in_time(reference.com_pos_m, reference.com_vel_mps, reference.com_acc_mps2, lead)
+        com_target = real_anchor + (com_pos - ref_anchor)
+        com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
+                   + s.com_kd * (com_vel_ref - com_vel))
+        row = np.zeros((3, n))
+        row[:, :nv] = jac_com
+        tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
+        # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
+        if s.momentum_weight > 0:
+            ang = np.zeros((3, nv))
+            mujoco.mj_angmomMat(m, d, ang, self._root)
+            ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
+            self._ang_prev = ang
+            scale = 1.0 / (self.robot.mass_kg * 9.81)
+            momentum = ang @ qvel
+            row = np.zeros((3, n))
+            row[:, :nv] = scale * ang
+            tasks.append((row, scale * (-s.momentum_damping * momentum - ang_dot @ qvel), s.momentum_weight))
+        # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
+        root_rot = d.xmat[self._root].reshape(3, 3)
+        target_rot = np.empty(9)
+        mujoco.mju_quat2Mat(target_rot, ik_qpos[3:7])
+        omega = root_rot @ qvel[3:6]
+        row = np.zeros((3, n))
+        row[:, 3:6] = root_rot
+        tasks.append((row, s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega,
+                      s.root_weight))
+        # posture towards the IK configuration
+        act = self.actuators
+        q = d.qpos[self._qpos_index]
+        v = qvel[self._dof]
+        row = np.zeros((len(self._dof), n))
+        row[np.arange(len(self._dof)), self._dof] = 1.0
+        posture = (ik_qacc[act.ik_dof_index] + s.posture_kp * (ik_qpos[act.ik_qpos_index] - q)
+                   + s.posture_kd * (ik_qvel[act.ik_dof_index] - v))
+        tasks.append((row, posture, s.posture_weight))
+
+        H = s.regularisation * np.eye(n)
+        g = np.zeros(n)
+        for A, b, w in tasks:
+            H += w * A.T @ A
+            g -= w * A.T @ b
+
+        ineq, lower, upper = [], [], []
+        for i, side in enumerate(SIDES):
+            start = nv + 6 * i
+            if not feet[side].in_contact:
+                for k in range(6):
+                    row = np.zeros(n)
+                    row[start + k] = 1.0
+                    ineq.append(row)
+                    lower.append(0.0)
+                    upper.append(0.0)
+                continue
+            R = soles[side][1]
+            force = np.zeros((3, n))
+            force[:, start:start + 3] = R.T
+            moment = np.zeros((3, n))
+            moment[:, start + 3:start + 6] = R.T
+            normal = force[2]
+            ineq.append(normal)
+            lower.append(s.min_normal_force_n)
+            upper.append(np.inf)
+            for a, limit in ((force[0], s.friction), (force[1], s.friction), (moment[0], self._half_width),
+                             (moment[1], self._half_length), (moment[2], s.torsion_m)):
+                ineq += [a - limit * normal, -a - limit * normal]
+                lower += [-np.inf, -np.inf]
+                upper += [0.0, 0.0]
+        torque_rows = np.zeros((len(self._dof), n))
+        torque_rows[:, :nv] = M[self._dof]
+        torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
+        torque_rows[:, nv + 6:] = -jac["right"][0][:, self._dof].T
+        torque_bias = bias[self._dof]
+        A = np.vstack(eq_rows + [np.array(ineq), torque_rows])
+        rhs = np.concatenate(eq_rhs)
+        upper_all = np.concatenate([rhs, np.array(upper), self._limits[:, 1] - torque_bias])
+        lower_all = np.concatenate([rhs, np.array(lower), self._limits[:, 0] - torque_bias])
+        finite = 1e9
+        upper_all = np.minimum(upper_all, finite)
+        lower_all = np.maximum(lower_all, -finite)
+        sense = np.zeros(len(upper_all), dtype=np.int32)
+        sense[:len(rhs)] = 5  # equality rows
+        H, A = np.ascontiguousarray(H), np.ascontiguousarray(A)
+        x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
+        if flag < 0 and np.isfinite(self._limits).any():
+            # no motion within the torque limits meets the contacts: take the unlimited solution
+            # (the motors saturate, as they would with any controller) rather than none
+            self.limit_relaxations += 1
+            torques = slice(len(upper_all) - len(self._dof), None)
+            upper_all[torques], lower_all[torques] = finite, -finite
+            x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
+        if flag < 0:
+            self.failures += 1
+            if self.failures > 50:
+                raise SolverError(f"inverse-dynamics QP failed {self.failures} times (DAQP exit flag {flag})")
+            return self.last_torques_nm
+        self.last_torques_nm = torque_rows @ x + torque_bias
+        if s.friction_smoothing_radps > 0:
+            velocity_next = qvel[self._dof] + m.opt.timestep * x[:nv][self._dof]
+            self.last_torques_nm = self.last_torques_nm + self._friction_nm * np.tanh(
+                velocity_next / s.friction_smoothing_radps)
+        self.last_qacc = x[:nv].copy()
+        self.last_wrenches = {"left": x[nv:nv + 6].copy(), "right": x[nv + 6:].copy()}
+        return self.last_torques_nm
