@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from ..core.mpc import MpcPlan, MpcState
-from ..core.params import MpcParams, RobotParams, check_nonnegative
+from ..core.params import MpcParams, RobotParams
 from ..core.planner import kinematic_box, rotation
 from ..core.qp import QpSolver
 from ..core.reference import Measurement
@@ -35,6 +35,7 @@ from ..estimation.estimator import DisturbanceEstimator
 from ..estimation.filters import MidrangeFilter, MidrangeParams, PersistenceFilter
 from ..estimation.governor import interval_unchecked, target_unchecked
 from ..exceptions import InfeasibleMpc, ParameterError
+from ..validation import check_nonnegative
 from .controller import IsmpcController
 from .modules import MODULES, check_modules
 from .step_timing import StaParams, should_adapt, solve_sta

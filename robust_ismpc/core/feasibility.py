@@ -54,6 +54,7 @@ import numpy as np
 import scipy.optimize
 
 from ..exceptions import ParameterError, SolverError
+from ..validation import check_number, check_positive
 
 __all__ = [
     "AxisFeasibilityInputs",
@@ -77,18 +78,6 @@ _CLASSIFY_TOL_S = 1e-9
 # Lines returned by the affine estimate are lowered by this much so that float rounding can
 # never put them outside the exact bounds [m].
 _INNER_SAFETY_M = 1e-12
-
-
-def _finite(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value):
-            raise ParameterError(f"{owner}.{name} must be a finite number, got {value!r}")
-
-
-def _positive(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float, np.floating)) or not math.isfinite(value) or value <= 0:
-            raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -150,8 +139,8 @@ class AxisFeasibilityInputs:
 
     def __post_init__(self) -> None:
         owner = "AxisFeasibilityInputs"
-        _finite(owner, support_pos_m=self.support_pos_m, zmp_pos_m=self.zmp_pos_m)
-        _positive(
+        check_number(owner, support_pos_m=self.support_pos_m, zmp_pos_m=self.zmp_pos_m)
+        check_positive(
             owner,
             zmp_half_width_m=self.zmp_half_width_m,
             T_ds_s=self.T_ds_s,
@@ -160,7 +149,7 @@ class AxisFeasibilityInputs:
             control_horizon_s=self.control_horizon_s,
             preview_horizon_s=self.preview_horizon_s,
         )
-        _finite(owner, restriction_rate_mps=self.restriction_rate_mps)
+        check_number(owner, restriction_rate_mps=self.restriction_rate_mps)
         if self.restriction_rate_mps < 0:
             raise ParameterError(f"{owner}.restriction_rate_mps must be >= 0, got {self.restriction_rate_mps}")
         arrays = {}
@@ -510,7 +499,7 @@ def zmp_row_weights(eta: float, sampling_period_s: float, control_horizon_s: flo
     ndarray, shape (C,)
         κ_1 .. κ_C, for the rows at t_{k+1} .. t_{k+C} [-].
     """
-    _positive("zmp_row_weights", eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
+    check_positive("zmp_row_weights", eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
     ratio = control_horizon_s / sampling_period_s
     if abs(ratio - round(ratio)) > 1e-6:
         raise ParameterError(

@@ -11,33 +11,9 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from ..exceptions import ParameterError
+from ..validation import check_nonnegative, check_positive
 
 GRAVITY_MPS2 = 9.81
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def check_positive(owner: str, **values: float) -> None:
-    """Raise ParameterError naming ``owner.name`` unless every value is a finite number > 0."""
-    for name, value in values.items():
-        if not _is_number(value) or value <= 0:
-            raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
-
-
-def check_fraction(owner: str, **values: float) -> None:
-    """Raise ParameterError naming ``owner.name`` unless every value is a number in [0, 1]."""
-    for name, value in values.items():
-        if not _is_number(value) or not 0.0 <= value <= 1.0:
-            raise ParameterError(f"{owner}.{name} must be in [0, 1], got {value!r}")
-
-
-def check_nonnegative(owner: str, **values: float) -> None:
-    """Raise ParameterError naming ``owner.name`` unless every value is a finite number >= 0."""
-    for name, value in values.items():
-        if not _is_number(value) or value < 0:
-            raise ParameterError(f"{owner}.{name} must be a finite number >= 0, got {value!r}")
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from ..exceptions import ParameterError
+from ..validation import check_nonnegative, check_positive
 
 __all__ = [
     "restriction_rate",
@@ -33,18 +34,6 @@ __all__ = [
     "restriction_profile",
     "checked_restriction_rate",
 ]
-
-
-def _positive(**values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-            raise ParameterError(f"{name} must be a finite number > 0, got {value!r}")
-
-
-def _nonnegative(**values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise ParameterError(f"{name} must be a finite number >= 0, got {value!r}")
 
 
 def _horizon_check(sampling_period_s: float, control_horizon_s: float) -> None:
@@ -72,8 +61,8 @@ def deviation_effect(
     max_midrange_change_mps2 : float
         Bound on the change of w̃ between consecutive samples [m/s² per sample].
     """
-    _nonnegative(delta_max_mps2=delta_max_mps2, max_midrange_change_mps2=max_midrange_change_mps2)
-    _positive(eta=eta, sampling_period_s=sampling_period_s)
+    check_nonnegative("", delta_max_mps2=delta_max_mps2, max_midrange_change_mps2=max_midrange_change_mps2)
+    check_positive("", eta=eta, sampling_period_s=sampling_period_s)
     return (delta_max_mps2 * math.expm1(eta * sampling_period_s) + max_midrange_change_mps2) / eta**2
 
 
@@ -114,7 +103,7 @@ def restriction_rate(
         r [m/s].
     """
     e = deviation_effect(delta_max_mps2, eta, sampling_period_s, max_midrange_change_mps2)
-    _positive(control_horizon_s=control_horizon_s)
+    check_positive("", control_horizon_s=control_horizon_s)
     _horizon_check(sampling_period_s, control_horizon_s)
     lam = math.exp(-eta * sampling_period_s)
     lam_p = math.exp(-eta * (control_horizon_s - sampling_period_s))
@@ -144,8 +133,8 @@ def one_step_margin(
     eta, sampling_period_s, control_horizon_s : float
         η [1/s], δ [s], T_c [s].
     """
-    _nonnegative(r_mps=r_mps)
-    _positive(zmp_box_m=zmp_box_m, eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
+    check_nonnegative("", r_mps=r_mps)
+    check_positive("", zmp_box_m=zmp_box_m, eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
     _horizon_check(sampling_period_s, control_horizon_s)
     lam = math.exp(-eta * sampling_period_s)
     lam_p = math.exp(-eta * (control_horizon_s - sampling_period_s))
@@ -181,8 +170,8 @@ def max_tolerable_deviation(
     max_midrange_change_mps2 : float
         Largest mid-range change per sample [m/s² per sample].
     """
-    _positive(zmp_box_m=zmp_box_m, eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
-    _nonnegative(max_midrange_change_mps2=max_midrange_change_mps2)
+    check_positive("", zmp_box_m=zmp_box_m, eta=eta, sampling_period_s=sampling_period_s, control_horizon_s=control_horizon_s)
+    check_nonnegative("", max_midrange_change_mps2=max_midrange_change_mps2)
     _horizon_check(sampling_period_s, control_horizon_s)
     r_sup = zmp_box_m / (2 * control_horizon_s)
     return _deviation_for_rate(r_sup, eta, sampling_period_s, control_horizon_s, max_midrange_change_mps2)
@@ -207,8 +196,8 @@ def restriction_profile(r_mps: float, sampling_period_s: float, num_samples: int
     num_samples : int
         C, the number of control-horizon samples.
     """
-    _nonnegative(r_mps=r_mps)
-    _positive(sampling_period_s=sampling_period_s)
+    check_nonnegative("", r_mps=r_mps)
+    check_positive("", sampling_period_s=sampling_period_s)
     if not isinstance(num_samples, (int, np.integer)) or num_samples < 1:
         raise ParameterError(f"num_samples must be an integer >= 1, got {num_samples!r}")
     return r_mps * sampling_period_s * np.arange(1, num_samples + 1, dtype=float)
@@ -246,13 +235,13 @@ def checked_restriction_rate(
         One line naming the violated condition and the largest Δ_max that can be guaranteed
         with this foot, horizon and preview.
     """
-    _positive(zmp_box_x_m=zmp_box_x_m, zmp_box_y_m=zmp_box_y_m)
+    check_positive("", zmp_box_x_m=zmp_box_x_m, zmp_box_y_m=zmp_box_y_m)
     r = restriction_rate(delta_max_mps2, eta, sampling_period_s, control_horizon_s, max_midrange_change_mps2)
     half = min(zmp_box_x_m, zmp_box_y_m) / 2
     # Largest admissible r: the box must stay non-empty, and the preview condition caps it too.
     r_cap = half / control_horizon_s
     if preview_horizon_s is not None and max_zmp_speed_mps is not None:
-        _positive(preview_horizon_s=preview_horizon_s, max_zmp_speed_mps=max_zmp_speed_mps)
+        check_positive("", preview_horizon_s=preview_horizon_s, max_zmp_speed_mps=max_zmp_speed_mps)
         if preview_horizon_s < control_horizon_s - 1e-12:
             raise ParameterError(
                 f"preview_horizon_s ({preview_horizon_s}) must be >= control_horizon_s ({control_horizon_s})"

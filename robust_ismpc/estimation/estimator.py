@@ -38,8 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.lip import discretise
-from ..core.params import check_nonnegative
 from ..exceptions import ParameterError
+from ..validation import check_nonnegative
 
 
 @dataclass(frozen=True)

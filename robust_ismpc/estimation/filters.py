@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import ParameterError
+from ..validation import check_vector
 
 __all__ = ["MidrangeFilter", "MidrangeParams", "PersistenceFilter"]
 
@@ -86,11 +87,11 @@ class MidrangeFilter:
 
     def reset(self, w_xy: np.ndarray | float = 0.0) -> None:
         """Set w̃ (x, y) [m/s²] without rate limit."""
-        self._value = _xy(np.broadcast_to(np.asarray(w_xy, dtype=float), (2,)), "w_xy").copy()
+        self._value = check_vector("", "w_xy", np.broadcast_to(np.asarray(w_xy, dtype=float), (2,)), 2)
 
     def update(self, w_hat_xy: np.ndarray) -> np.ndarray:
         """Return the new mid-range w̃ (x, y) [m/s²], shape (2,), from the estimate ŵ (x, y)."""
-        target = _xy(w_hat_xy, "w_hat_xy")
+        target = check_vector("", "w_hat_xy", w_hat_xy, 2)
         p = self.params
         if p.band_half_width_mps2 is not None:
             centre = np.asarray(p.band_centre_mps2)
@@ -98,13 +99,6 @@ class MidrangeFilter:
         rho = p.max_change_mps2
         self._value = np.clip(target, self._value - rho, self._value + rho)
         return self._value.copy()
-
-
-def _xy(value: np.ndarray, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{name} must be a finite array of shape (2,), got {value!r}")
-    return arr
 
 
 class PersistenceFilter:
@@ -135,7 +129,7 @@ class PersistenceFilter:
 
     def update(self, w_hat_xy: np.ndarray) -> np.ndarray:
         """Push ŵ (x, y) [m/s²] and return its persistent part, shape (2,)."""
-        self._buffer[self._count % self.window] = _xy(w_hat_xy, "w_hat_xy")
+        self._buffer[self._count % self.window] = check_vector("", "w_hat_xy", w_hat_xy, 2)
         self._count += 1
         buf = self._buffer
         same_sign = np.all(buf > 0, axis=0) | np.all(buf < 0, axis=0)

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import ParameterError
+from ..validation import check_vector
 
 __all__ = ["admissible_disturbance", "governed_disturbance", "interval_unchecked", "target_unchecked"]
 
@@ -50,9 +51,9 @@ def admissible_disturbance(
     """
     if not (np.isfinite(eta) and eta > 0):
         raise ParameterError(f"eta must be a finite number > 0, got {eta!r}")
-    d = _pair(dcm_local_m, "dcm_local_m")
-    lower = _pair(lower_m, "lower_m", allow_inf=True)
-    upper = _pair(upper_m, "upper_m", allow_inf=True)
+    d = check_vector("", "dcm_local_m", dcm_local_m, 2)
+    lower = check_vector("", "lower_m", lower_m, 2, allow_inf=True)
+    upper = check_vector("", "upper_m", upper_m, 2, allow_inf=True)
     return interval_unchecked(d, lower, upper, eta * eta)
 
 
@@ -76,10 +77,10 @@ def governed_disturbance(
     -------
     ndarray, shape (2,)
     """
-    persistent = _pair(persistent_mps2, "persistent_mps2")
-    fresh = _pair(fresh_mps2, "fresh_mps2")
-    low = _pair(low_mps2, "low_mps2", allow_inf=True)
-    high = _pair(high_mps2, "high_mps2", allow_inf=True)
+    persistent = check_vector("", "persistent_mps2", persistent_mps2, 2)
+    fresh = check_vector("", "fresh_mps2", fresh_mps2, 2)
+    low = check_vector("", "low_mps2", low_mps2, 2, allow_inf=True)
+    high = check_vector("", "high_mps2", high_mps2, 2, allow_inf=True)
     return target_unchecked(persistent, fresh, low, high)
 
 
@@ -93,12 +94,3 @@ def target_unchecked(persistent: np.ndarray, fresh: np.ndarray, low: np.ndarray,
     """:func:`governed_disturbance` without input checks (see :func:`interval_unchecked`)."""
     inside = (persistent >= low) & (persistent <= high)
     return np.where(inside, np.minimum(np.maximum(fresh, low), np.maximum(low, high)), persistent)
-
-
-def _pair(value, name: str, allow_inf: bool = False) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    ok = ~np.isnan(arr) if allow_inf else np.isfinite(arr)
-    if arr.shape != (2,) or not np.all(ok):
-        kind = "numbers (not NaN)" if allow_inf else "finite numbers"
-        raise ParameterError(f"{name} must be 2 {kind}, got {value!r}")
-    return arr

@@ -32,17 +32,9 @@ from ..exceptions import ParameterError
 from ..runs.forces import ForceWindow
 from ..runs.spec import RunResult, RunSpec
 from ..sim.model import compile_model
+from ..validation import check_nonnegative, check_number, check_positive
 
 GRAVITY_MPS2 = 9.81
-
-
-def _check_number(owner: str, name: str, value, positive: bool = False, nonnegative: bool = False) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-        raise ParameterError(f"{owner}.{name} must be a finite number, got {value!r}")
-    if positive and not value > 0:
-        raise ParameterError(f"{owner}.{name} must be > 0, got {value!r}")
-    if nonnegative and not value >= 0:
-        raise ParameterError(f"{owner}.{name} must be >= 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -71,10 +63,10 @@ class ScaledForce:
     jitter: bool = False
 
     def __post_init__(self) -> None:
-        _check_number("ScaledForce", "fx_n", self.fx_n)
-        _check_number("ScaledForce", "fy_n", self.fy_n)
-        _check_number("ScaledForce", "reference_mass_kg", self.reference_mass_kg, positive=True)
-        _check_number("ScaledForce", "t_start_s", self.t_start_s, nonnegative=True)
+        check_number("ScaledForce", fx_n=self.fx_n)
+        check_number("ScaledForce", fy_n=self.fy_n)
+        check_positive("ScaledForce", reference_mass_kg=self.reference_mass_kg)
+        check_nonnegative("ScaledForce", t_start_s=self.t_start_s)
         if not (isinstance(self.duration_s, (int, float)) and self.duration_s > 0 and not math.isnan(self.duration_s)):
             raise ParameterError(f"ScaledForce.duration_s must be > 0 (inf allowed), got {self.duration_s!r}")
 
@@ -120,9 +112,9 @@ class BagSpec:
 
     def __post_init__(self) -> None:
         for name in ("reference_mass_kg", "reference_robot_mass_kg", "rope_length_m", "radius_m"):
-            _check_number("BagSpec", name, getattr(self, name), positive=True)
-        _check_number("BagSpec", "initial_angle_rad", self.initial_angle_rad)
-        _check_number("BagSpec", "damping_nms", self.damping_nms, nonnegative=True)
+            check_positive("BagSpec", **{name: getattr(self, name)})
+        check_number("BagSpec", initial_angle_rad=self.initial_angle_rad)
+        check_nonnegative("BagSpec", damping_nms=self.damping_nms)
         if self.link is not None and not (isinstance(self.link, str) and self.link):
             raise ParameterError(f"BagSpec.link must be a body name or None, got {self.link!r}")
         offset = tuple(float(v) for v in self.attach_offset_m)
@@ -177,15 +169,15 @@ class BallSpec:
     def __post_init__(self) -> None:
         for name in ("reference_mass_kg", "reference_robot_mass_kg", "rope_length_m", "radius_m",
                      "time_to_step_at_hit_s", "earliest_hit_s"):
-            _check_number("BallSpec", name, getattr(self, name), positive=True)
-        _check_number("BallSpec", "contact_angle_rad", self.contact_angle_rad, nonnegative=True)
-        _check_number("BallSpec", "release_angle_rad", self.release_angle_rad, positive=True)
+            check_positive("BallSpec", **{name: getattr(self, name)})
+        check_nonnegative("BallSpec", contact_angle_rad=self.contact_angle_rad)
+        check_positive("BallSpec", release_angle_rad=self.release_angle_rad)
         if not self.contact_angle_rad < self.release_angle_rad < 0.5 * math.pi - 1e-3:
             raise ParameterError(
                 f"BallSpec.release_angle_rad must be in (contact angle, pi/2), got {self.release_angle_rad!r}"
             )
         if self.hit_height_m is not None:
-            _check_number("BallSpec", "hit_height_m", self.hit_height_m, positive=True)
+            check_positive("BallSpec", hit_height_m=self.hit_height_m)
 
 
 @dataclass(frozen=True)
@@ -209,8 +201,8 @@ class Variation:
     magnitude_fraction: float = 0.0
 
     def __post_init__(self) -> None:
-        _check_number("Variation", "time_s", self.time_s, nonnegative=True)
-        _check_number("Variation", "magnitude_fraction", self.magnitude_fraction, nonnegative=True)
+        check_nonnegative("Variation", time_s=self.time_s)
+        check_nonnegative("Variation", magnitude_fraction=self.magnitude_fraction)
         if not self.magnitude_fraction < 1:
             raise ParameterError(f"Variation.magnitude_fraction must be < 1, got {self.magnitude_fraction!r}")
 
@@ -274,7 +266,7 @@ class Scenario:
             raise ParameterError(f"Scenario.name must be a non-empty string, got {self.name!r}")
         if not isinstance(self.command, WalkCommand):
             raise ParameterError(f"Scenario.command must be a WalkCommand, got {self.command!r}")
-        _check_number("Scenario", "duration_s", self.duration_s, positive=True)
+        check_positive("Scenario", duration_s=self.duration_s)
         unknown = [m for m in self.robust_modules if m not in MODULES]
         if unknown or not self.robust_modules:
             raise ParameterError(

@@ -48,11 +48,11 @@ from typing import Any
 import numpy as np
 
 from ..control.modules import controller_modules, parse_controllers
-from ..core.params import check_positive
 from ..exceptions import ParameterError
 from ..io import atomic_write_bytes, atomic_write_json
 from ..runs.forces import ForceWindow
 from ..runs.outputs import is_scratch, open_output_dir
+from ..validation import check_positive
 
 LOGGER = logging.getLogger("robust_ismpc")
 

@@ -15,7 +15,8 @@ import numpy as np
 import tomllib
 
 from ..exceptions import ModelError, ParameterError
-from .spec import _FRAME_TYPES, GAIT_FIELDS, _as_vec3
+from ..validation import check_vector
+from .spec import _FRAME_TYPES, GAIT_FIELDS
 
 BUILTIN_DIR = Path(__file__).resolve().parent
 #: Built-in robots: one robot file each in ``robust_ismpc/robots`` (adding a file adds a robot).
@@ -262,10 +263,10 @@ def read_robot_file(path: str | Path) -> RobotFile:
         raise ParameterError(f"{toml_path}: sole_outline_m must be a list of [x, y] pairs [m]") from None
     sole_size = {key: _toml_number(toml_path, key, table[key]) for key in ("sole_length_m", "sole_width_m")}
     simulation = _simulation_table(toml_path, table.get("simulation", {}))
-    owner = f"{toml_path}: "
+    owner = f"{toml_path}:"
     offsets = (
-        _as_vec3(owner, "left_sole_offset_m", table["left_sole_offset_m"]),
-        _as_vec3(owner, "right_sole_offset_m", table["right_sole_offset_m"]),
+        tuple(check_vector(owner, "left_sole_offset_m", table["left_sole_offset_m"], 3).tolist()),
+        tuple(check_vector(owner, "right_sole_offset_m", table["right_sole_offset_m"], 3).tolist()),
     )
     feet = (str(table["left_foot"]), str(table["right_foot"]))
     sole_sites = _sole_sites(toml_path, table, frame_type, offsets)

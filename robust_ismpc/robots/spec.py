@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from ..core.params import RobotParams, check_positive
+from ..core.params import RobotParams
 from ..exceptions import ParameterError
+from ..validation import check_positive, check_vector
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -27,17 +28,6 @@ MEASURED_FIELDS = ("name", "mass_kg", "com_height_m", "foot_spacing_m", "sole_le
 GAIT_FIELDS = tuple(sorted(set(f.name for f in fields(RobotParams)) - set(MEASURED_FIELDS)))
 
 _FRAME_TYPES = ("site", "body")
-
-
-def _as_vec3(owner: str, name: str, value: Any) -> tuple[float, float, float]:
-    """``owner`` ends with ``.`` (an attribute) or ``: `` (a key of a file)."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{owner}{name} must be 3 numbers [m], got {value!r}") from None
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{owner}{name} must be 3 finite numbers [m], got {value!r}")
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
 @dataclass(frozen=True)
@@ -143,9 +133,9 @@ class RobotSpec:
                 raise ParameterError(f"{owner}.{attr} must be a non-empty string, got {value!r}")
         if self.left_foot == self.right_foot:
             raise ParameterError(f"{owner}: left_foot and right_foot are both {self.left_foot!r}")
-        object.__setattr__(self, "left_sole_offset_m", _as_vec3(f"{owner}.", "left_sole_offset_m", self.left_sole_offset_m))
+        object.__setattr__(self, "left_sole_offset_m", tuple(check_vector(owner, "left_sole_offset_m", self.left_sole_offset_m, 3).tolist()))
         object.__setattr__(
-            self, "right_sole_offset_m", _as_vec3(f"{owner}.", "right_sole_offset_m", self.right_sole_offset_m)
+            self, "right_sole_offset_m", tuple(check_vector(owner, "right_sole_offset_m", self.right_sole_offset_m, 3).tolist())
         )
         for attr in ("sole_length_m", "sole_width_m", "mass_kg", "com_height_m", "foot_spacing_m", "base_height_m"):
             check_positive(owner, **{attr: getattr(self, attr)})

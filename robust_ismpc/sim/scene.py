@@ -19,27 +19,9 @@ import numpy as np
 
 from ..exceptions import ModelError, ParameterError
 from ..robots.spec import RobotSpec
+from ..validation import check_number, check_positive, check_vector
 from .model import compile_model, scene_spec
 from .robot import DISTURBANCE_PREFIX
-
-
-def _finite(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or math.isnan(value):
-            raise ParameterError(f"{owner}.{name} must be a number, got {value!r}")
-
-
-def _positive(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-            raise ParameterError(f"{owner}.{name} must be a finite number > 0, got {value!r}")
-
-
-def _vec3(owner: str, name: str, value: Sequence[float]) -> tuple[float, float, float]:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ParameterError(f"{owner}.{name} must be 3 finite numbers, got {value!r}")
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
 @dataclass(frozen=True)
@@ -68,7 +50,7 @@ class Force:
     body: str | None = None
 
     def __post_init__(self) -> None:
-        _finite("Force", fx_n=self.fx_n, fy_n=self.fy_n, fz_n=self.fz_n, t_start_s=self.t_start_s,
+        check_number("Force", allow_inf=True, fx_n=self.fx_n, fy_n=self.fy_n, fz_n=self.fz_n, t_start_s=self.t_start_s,
                 t_end_s=self.t_end_s)
         if not all(math.isfinite(v) for v in (self.fx_n, self.fy_n, self.fz_n, self.t_start_s)):
             raise ParameterError(f"Force components and t_start_s must be finite, got {self}")
@@ -111,10 +93,10 @@ class Impulse:
     body: str | None = None
 
     def __post_init__(self) -> None:
-        _finite("Impulse", px_ns=self.px_ns, py_ns=self.py_ns, t_s=self.t_s)
+        check_number("Impulse", allow_inf=True, px_ns=self.px_ns, py_ns=self.py_ns, t_s=self.t_s)
         if not all(math.isfinite(v) for v in (self.px_ns, self.py_ns, self.t_s)):
             raise ParameterError(f"Impulse components and t_s must be finite, got {self}")
-        _positive("Impulse", duration_s=self.duration_s)
+        check_positive("Impulse", duration_s=self.duration_s)
 
     def as_force(self) -> Force:
         """The equivalent windowed :class:`Force`."""
@@ -213,11 +195,11 @@ class Payload:
     damping_nms: float = 0.0
 
     def __post_init__(self) -> None:
-        _positive("Payload", mass_kg=self.mass_kg, rope_length_m=self.rope_length_m, radius_m=self.radius_m)
-        _finite("Payload", initial_angle_rad=self.initial_angle_rad, damping_nms=self.damping_nms)
+        check_positive("Payload", mass_kg=self.mass_kg, rope_length_m=self.rope_length_m, radius_m=self.radius_m)
+        check_number("Payload", allow_inf=True, initial_angle_rad=self.initial_angle_rad, damping_nms=self.damping_nms)
         if self.damping_nms < 0:
             raise ParameterError(f"Payload.damping_nms must be >= 0, got {self.damping_nms}")
-        object.__setattr__(self, "attach_offset_m", _vec3("Payload", "attach_offset_m", self.attach_offset_m))
+        object.__setattr__(self, "attach_offset_m", tuple(check_vector("Payload", "attach_offset_m", self.attach_offset_m, 3).tolist()))
 
 
 @dataclass(frozen=True)
@@ -262,8 +244,8 @@ class SwingingBall:
     release_s: float = 0.0
 
     def __post_init__(self) -> None:
-        _positive("SwingingBall", rope_length_m=self.rope_length_m, mass_kg=self.mass_kg, radius_m=self.radius_m)
-        _finite("SwingingBall", release_angle_rad=self.release_angle_rad, release_s=self.release_s)
+        check_positive("SwingingBall", rope_length_m=self.rope_length_m, mass_kg=self.mass_kg, radius_m=self.radius_m)
+        check_number("SwingingBall", allow_inf=True, release_angle_rad=self.release_angle_rad, release_s=self.release_s)
         if not (math.isfinite(self.release_s) and self.release_s >= 0):
             raise ParameterError(f"SwingingBall.release_s must be a finite number >= 0, got {self.release_s!r}")
         if self.release_s > 0 and not abs(self.release_angle_rad) < 0.5 * math.pi - 1e-3:
@@ -271,8 +253,8 @@ class SwingingBall:
                 f"SwingingBall.release_angle_rad must be within (-pi/2, pi/2) to be held until release_s, "
                 f"got {self.release_angle_rad!r}"
             )
-        object.__setattr__(self, "pivot_m", _vec3("SwingingBall", "pivot_m", self.pivot_m))
-        axis = np.asarray(_vec3("SwingingBall", "hinge_axis", self.hinge_axis))
+        object.__setattr__(self, "pivot_m", tuple(check_vector("SwingingBall", "pivot_m", self.pivot_m, 3).tolist()))
+        axis = np.asarray(tuple(check_vector("SwingingBall", "hinge_axis", self.hinge_axis, 3).tolist()))
         norm = float(np.linalg.norm(axis))
         if norm < 1e-9:
             raise ParameterError("SwingingBall.hinge_axis must be non-zero")

@@ -36,9 +36,9 @@ import daqp
 import mujoco
 import numpy as np
 
-from ...core.params import check_nonnegative
 from ...core.reference import GaitReference
 from ...exceptions import ParameterError, SolverError
+from ...validation import check_nonnegative
 from ..model import compile_model
 from ..robot import MujocoRobot
 from .ik import ActuatorMap
