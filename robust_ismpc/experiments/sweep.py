@@ -1182,9 +1182,9 @@ def _label(kind: str) -> str:
 
 def plot_polar(frontier: dict, kind: str, path: Path) -> Path:
     """Polar frontier: per controller, radius = min over phases (solid) and mean over phases (dashed)."""
-    from ..plotting import _pyplot, _save
+    from ..plotting import pyplot, save_figure
 
-    plt = _pyplot()
+    plt = pyplot()
     table = frontier["frontier"][kind]
     fig = plt.figure(figsize=(6, 6))
     ax = fig.add_subplot(projection="polar")
@@ -1203,16 +1203,16 @@ def plot_polar(frontier: dict, kind: str, path: Path) -> Path:
     ax.set_title(f"{frontier['robot']} / {frontier['sim']}: {_label(kind)}\n(solid: min over phases, dashed: mean; "
                  "0° = forward, 90° = left)", fontsize=9)
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
     return Path(path)
 
 
 def plot_phase(frontier: dict, kind: str, path: Path) -> Path:
     """Per-phase frontier: one panel per direction, one line per controller."""
-    from ..plotting import _pyplot, _save
+    from ..plotting import pyplot, save_figure
 
-    plt = _pyplot()
+    plt = pyplot()
     table = frontier["frontier"][kind]
     dirs = sorted(next(iter(table.values())), key=float)
     cols = min(4, len(dirs))
@@ -1233,7 +1233,7 @@ def plot_phase(frontier: dict, kind: str, path: Path) -> Path:
     axes.flat[0].legend(fontsize=7)
     fig.suptitle(f"{frontier['robot']} / {frontier['sim']}: {_label(kind)} per gait phase", fontsize=10)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
     return Path(path)
 

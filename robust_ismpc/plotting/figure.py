@@ -1,0 +1,33 @@
+"""Figure plumbing shared by every plot: matplotlib on the Agg backend, atomic PNG output."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+from ..io import atomic_write_bytes
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (imported on first use: it is slow to import)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, path: str | Path) -> None:
+    """Write ``fig`` as a PNG at ``path``, atomically (a reader never sees half a file)."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+    atomic_write_bytes(Path(path), buffer.getvalue())
+
+
+def finish_figure(plt, fig, path: str | Path) -> Path:
+    """Lay out, write and close ``fig``; returns the path."""
+    fig.tight_layout()
+    save_figure(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
