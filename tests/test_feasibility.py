@@ -7,15 +7,14 @@ import time
 
 import numpy as np
 import pytest
+from feasibility_reference import feasibility_bounds_lp, straight_gait_inputs
 
 from robust_ismpc.core.feasibility import (
     AxisFeasibilityInputs,
     affine_inner_estimate,
     feasibility_bounds,
     feasibility_bounds_at,
-    feasibility_bounds_lp,
     feasibility_breakpoints,
-    straight_gait_inputs,
     zmp_row_weights,
 )
 from robust_ismpc.core.params import GRAVITY_MPS2

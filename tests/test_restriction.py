@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 import scipy.optimize
+from feasibility_reference import build_axis_program
 
-from robust_ismpc.core.feasibility import AxisFeasibilityInputs, build_axis_program, feasibility_bounds_at
+from robust_ismpc.core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at
 from robust_ismpc.core.params import GRAVITY_MPS2
 from robust_ismpc.core.restriction import (
     checked_restriction_rate,

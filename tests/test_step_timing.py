@@ -7,9 +7,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from feasibility_reference import straight_gait_inputs
 
 from robust_ismpc.control.step_timing import StaParams, should_adapt, solve_sta, solve_sta_qp, timing_interval
-from robust_ismpc.core.feasibility import AffineFeasibility, feasibility_bounds_at, straight_gait_inputs
+from robust_ismpc.core.feasibility import AffineFeasibility, feasibility_bounds_at
 from robust_ismpc.core.params import GRAVITY_MPS2
 from robust_ismpc.exceptions import ParameterError
 

@@ -27,7 +27,7 @@ import numpy as np
 from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
 from ..core.mpc import MpcPlan, MpcState
 from ..core.params import MpcParams, RobotParams
-from ..core.planner import kinematic_box, rotation
+from ..core.planner import kinematic_bounds, rotation
 from ..core.qp import QpSolver
 from ..core.reference import Measurement
 from ..core.restriction import checked_restriction_rate, max_tolerable_deviation, restriction_profile
@@ -322,9 +322,7 @@ class RobustIsmpcController(IsmpcController):
             step_periods_s=periods, eta=self.eta, sampling_period_s=self.dt,
             control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
         )
-        boxes = {side: kinematic_box(robot, side) for side in (-1, 1)}
-        lo = np.array([boxes[int(side)][0] for side in sides])
-        hi = np.array([boxes[int(side)][1] for side in sides])
+        lo, hi = kinematic_bounds(robot, sides)
         if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
             lo, hi = nominal.copy(), nominal.copy()
         elif frozen:
@@ -341,7 +339,7 @@ class RobustIsmpcController(IsmpcController):
 
     def _landing_footstep_frozen(self, t_s: float, j: int) -> bool:
         """True once the QP holds footstep j fixed (the last ``footstep_freeze_s`` before touchdown)."""
-        return bool(t_s >= self.plan.touchdown_s[j] - self.mpc_params.footstep_freeze_s - 1e-9)
+        return self.plan.is_frozen(j, t_s, self.mpc_params.footstep_freeze_s)
 
     def _current_bounds(self, t: float, j: int, state: MpcState, remaining: float):
         """Exact feasibility bounds for the current timing, in the support frame.
@@ -360,7 +358,7 @@ class RobustIsmpcController(IsmpcController):
             self._bounds_cache = (key, inputs_x, inputs_y, R, origin)
         _, inputs_x, inputs_y, R, origin = self._bounds_cache
         zmp_local = R.T @ (state.zmp_m - origin)
-        w0 = inputs_x._consts["w0"]  # noqa: SLF001 - the affine ZMP coefficient of the bounds
+        w0 = inputs_x.zmp_gain
         if self._bounds_now is None or self._bounds_now[0] != (key, remaining):
             self._bounds_now = (
                 (key, remaining), feasibility_bounds_at(inputs_x, remaining), feasibility_bounds_at(inputs_y, remaining),

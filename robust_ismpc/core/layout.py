@@ -3,11 +3,15 @@
 Per axis the decision vector is ``(Ẋ_z (C), X_f (F))``: the ZMP velocities over the control
 horizon, then the free footstep coordinates. When the footstep orientations couple the axes
 the two per-axis vectors are stacked, x first: ``(Ẋ_z, X_f, Ẏ_z, Y_f)`` (spec §7.1).
+:mod:`robust_ismpc.core.mpc` assembles its matrices and reads its solutions only through
+:class:`QpLayout`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -47,3 +51,11 @@ class QpLayout:
         """Slice of the free footstep coordinates of ``axis`` in this QP's vector."""
         base = axis * self.n_axis if self.coupled else 0
         return slice(base + self.C, base + self.C + self.F)
+
+    def axis_columns(self, zmp_vel: np.ndarray, footsteps: np.ndarray) -> np.ndarray:
+        """One axis's columns joined in order: ``zmp_vel`` (..., C) then ``footsteps`` (..., F)."""
+        return np.concatenate([zmp_vel, footsteps], axis=-1)
+
+    def both_axes(self, x_part: np.ndarray, y_part: np.ndarray) -> np.ndarray:
+        """A coupled QP's columns: the x axis's (..., C+F) then the y axis's (..., C+F)."""
+        return np.concatenate([x_part, y_part], axis=-1)

@@ -27,7 +27,7 @@ from ..exceptions import InfeasibleMpc
 from .footsteps import FootstepPlan
 from .layout import QpLayout
 from .params import MpcParams, RobotParams
-from .planner import kinematic_box
+from .planner import kinematic_bounds
 from .qp import QpProblem, QpSolver, make_solver
 from .stability import stability_coefficients
 
@@ -135,8 +135,6 @@ class IsmpcQp:
         self.stab = stability_coefficients(self.eta, dt, C, P, mpc.tail)
         self.horizon_offsets_s = dt * np.arange(1, C + 1)
         self.tail_offsets_s = dt * np.arange(C, P + 1)
-        self._kin_lower = {s: kinematic_box(robot, s)[0] for s in (-1, 1)}
-        self._kin_upper = {s: kinematic_box(robot, s)[1] for s in (-1, 1)}
         self._structures: dict[int, _Structure] = {}
 
     def _structure(self, F: int) -> _Structure:
@@ -144,22 +142,24 @@ class IsmpcQp:
         if cached is not None:
             return cached
         C = self.C
-        n = C + F
-        H_axis = np.diag(np.concatenate([np.ones(C), np.full(F, self.mpc.footstep_weight)]))
+        layout = QpLayout(C=C, F=F, coupled=False)
+        n = layout.n_axis
+        H_axis = np.diag(layout.axis_columns(np.ones(C), np.full(F, self.mpc.footstep_weight)))
         H_coupled = np.zeros((2 * n, 2 * n))
-        H_coupled[:n, :n] = H_axis
-        H_coupled[n:, n:] = H_axis
+        coupled = QpLayout(C=C, F=F, coupled=True)
+        for axis in range(2):
+            block = slice(coupled.zmp_vel(axis).start, coupled.footsteps(axis).stop)
+            H_coupled[block, block] = H_axis
         diff = np.zeros((F, n))
-        diff[np.arange(F), C + np.arange(F)] = 1.0
-        if F > 1:
-            diff[np.arange(1, F), C + np.arange(F - 1)] = -1.0
-        A_axis = np.zeros((n + 1, n))
-        A_axis[:C, :C] = self.integrator
-        A_axis[C:n] = diff
-        A_axis[n, :C] = self.stab.zmp_vel
-        eq_axis = np.zeros(n + 1, dtype=bool)
+        steps = layout.footsteps()
+        diff[:, steps] = np.eye(F) - np.eye(F, k=-1)
+        A_axis = np.zeros((C + F + 1, n))
+        A_axis[:C, layout.zmp_vel()] = self.integrator
+        A_axis[C:C + F] = diff
+        A_axis[-1, layout.zmp_vel()] = self.stab.zmp_vel
+        eq_axis = np.zeros(C + F + 1, dtype=bool)
         eq_axis[-1] = True
-        eq_coupled = np.zeros(2 * C + 2 * F + 2, dtype=bool)
+        eq_coupled = np.zeros(2 * (C + F + 1), dtype=bool)
         eq_coupled[-2:] = True
         structure = _Structure(H_axis, H_coupled, A_axis, diff, eq_axis, eq_coupled)
         self._structures[F] = structure
@@ -174,7 +174,7 @@ class IsmpcQp:
         touchdown = plan.touchdown_s
         # Landed (or frozen) footsteps are known: footstep j is free while its touchdown is
         # more than footstep_freeze_s away.
-        first_free = j_now if t_s < touchdown[j_now] - self.mpc.footstep_freeze_s - 1e-9 else j_now + 1
+        first_free = j_now + 1 if plan.is_frozen(j_now, t_s, self.mpc.footstep_freeze_s) else j_now
         first_free = max(first_free, 2)  # footstep 1 is the initial support foot, on the ground
         if self.mpc.fix_footsteps:
             F = 0
@@ -245,8 +245,7 @@ class IsmpcQp:
         if F:
             prev_known[0] = plan.pos_m[hf.first_free - 1]
         sides = plan.side[free_idx]
-        kin_lower = np.array([self._kin_lower[int(s)] for s in sides]).reshape(F, 2)
-        kin_upper = np.array([self._kin_upper[int(s)] for s in sides]).reshape(F, 2)
+        kin_lower, kin_upper = kinematic_bounds(self.robot, sides)
         target = plan.candidate_pos_m[free_idx]  # (F, 2)
         beta = self.mpc.footstep_weight
         yaw_rows = plan.interpolate(plan.yaw_rad, weights_h)
@@ -256,8 +255,8 @@ class IsmpcQp:
 
         if not coupled:
             A = st.A_axis
-            A[:C, C:] = -W_free
-            A[-1, C:] = tail_free
+            A[:C, layout.footsteps()] = -W_free
+            A[-1, layout.footsteps()] = tail_free
             problems = []
             for axis in range(2):
                 lower = np.concatenate([
@@ -270,25 +269,25 @@ class IsmpcQp:
                     kin_upper[:, axis] + prev_known[:, axis],
                     [stab_rhs[axis]],
                 ])
-                g = np.concatenate([np.zeros(C), -beta * target[:, axis]])
+                g = layout.axis_columns(np.zeros(C), -beta * target[:, axis])
                 problems.append(QpProblem(st.H_axis, g, A, lower, upper, st.equality_axis, tag="xy"[axis]))
             return problems, layout, hf
 
         # Coupled: rotate the ZMP rows into the box frame and the kinematic rows into the
         # previous footstep's frame.
-        zmp_block = np.hstack([self.integrator, -W_free])  # (C, C+F): p_z - centre (free part)
-        stab_row = np.concatenate([self.stab.zmp_vel, tail_free])
+        zmp_block = layout.axis_columns(self.integrator, -W_free)  # (C, C+F): p_z - centre (free part)
+        stab_row = layout.axis_columns(self.stab.zmp_vel, tail_free)
         diff = st.diff
         cz, sz = np.cos(yaw_rows)[:, None], np.sin(yaw_rows)[:, None]
         ck, sk = np.cos(yaw_kin)[:, None], np.sin(yaw_kin)[:, None]
         zero_stab = np.zeros(C + F)
         A = np.vstack([
-            np.hstack([cz * zmp_block, sz * zmp_block]),
-            np.hstack([-sz * zmp_block, cz * zmp_block]),
-            np.hstack([ck * diff, sk * diff]),
-            np.hstack([-sk * diff, ck * diff]),
-            np.concatenate([stab_row, zero_stab]),
-            np.concatenate([zero_stab, stab_row]),
+            layout.both_axes(cz * zmp_block, sz * zmp_block),
+            layout.both_axes(-sz * zmp_block, cz * zmp_block),
+            layout.both_axes(ck * diff, sk * diff),
+            layout.both_axes(-sk * diff, ck * diff),
+            layout.both_axes(stab_row, zero_stab),
+            layout.both_axes(zero_stab, stab_row),
         ])
         off_a = cz[:, 0] * offset[:, 0] + sz[:, 0] * offset[:, 1]
         off_b = -sz[:, 0] * offset[:, 0] + cz[:, 0] * offset[:, 1]
@@ -308,7 +307,8 @@ class IsmpcQp:
             kin_upper[:, 1] + prev_b,
             stab_rhs,
         ])
-        g = np.concatenate([np.zeros(C), -beta * target[:, 0], np.zeros(C), -beta * target[:, 1]])
+        g = layout.both_axes(layout.axis_columns(np.zeros(C), -beta * target[:, 0]),
+                             layout.axis_columns(np.zeros(C), -beta * target[:, 1]))
         return [QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy")], layout, hf
 
     def solve(

@@ -88,6 +88,24 @@ def kinematic_box(robot: RobotParams, side: int) -> tuple[np.ndarray, np.ndarray
     return lower, upper
 
 
+def kinematic_bounds(robot: RobotParams, sides: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`kinematic_box` of each footstep of a sequence.
+
+    Parameters
+    ----------
+    sides : ndarray, shape (n,)
+        +1 for a left footstep, -1 for a right one.
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (n, 2)
+    """
+    left = (np.asarray(sides).reshape(-1) > 0)[:, None]
+    left_lo, left_hi = kinematic_box(robot, 1)
+    right_lo, right_hi = kinematic_box(robot, -1)
+    return np.where(left, left_lo, right_lo), np.where(left, left_hi, right_hi)
+
+
 def plan_footsteps(
     robot: RobotParams,
     command: VelocityCommand,
