@@ -68,12 +68,11 @@ def check_vector(owner: str, name: str, value, size: int, allow_inf: bool = Fals
     ndarray, shape (size,)
         A new array.
     """
+    kind = "numbers (not NaN)" if allow_inf else "finite numbers"
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
-        arr = None
-    ok = arr is not None and arr.shape == (size,) and bool(np.all(~np.isnan(arr) if allow_inf else np.isfinite(arr)))
-    if not ok:
-        kind = "numbers (not NaN)" if allow_inf else "finite numbers"
+        raise ParameterError(f"{_label(owner, name)} must be {size} {kind}, got {value!r}") from None
+    if arr.shape != (size,) or not bool(np.all(~np.isnan(arr) if allow_inf else np.isfinite(arr))):
         raise ParameterError(f"{_label(owner, name)} must be {size} {kind}, got {value!r}")
     return arr

@@ -514,15 +514,14 @@ def _robot_init(args) -> int:
 def _calibrate_draft(path: Path) -> float | None:
     """The swing-leg CoP gain of a drafted robot file, or None (with a warning) when the fit
     explains less than a third of the CoP deviation or fails."""
-    from ..core.planner import WalkCommand
+    from ..core.planner import WalkCommand, command_limits
     from ..exceptions import IsmpcError
     from ..sim.calibrate import fit_swing_cop_gain
     from ..sim.model import load_robot
-    from .inputs import command_limits
 
     try:
         spec = load_robot(str(path))
-        vx = 0.5 * command_limits(spec.params())["--vx"][0]
+        vx = 0.5 * command_limits(spec.params())["vx_mps"][0]
         fit = fit_swing_cop_gain(spec, WalkCommand(vx))
     except IsmpcError as exc:
         _warn(f"swing-leg CoP gain not calibrated: {exc}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..core.planner import kinematic_box
+from ..core.planner import command_limits
 from ..exceptions import ParameterError
 
 #: Longest simulated time of one run [s]. A run keeps its trace in memory (about 0.5 kB per
@@ -17,20 +17,8 @@ from ..exceptions import ParameterError
 #: for a soak (``ismpc soak --minutes`` at most 60).
 MAX_SIM_DURATION_S = 3600.0
 
-def command_limits(params) -> dict[str, tuple[float, str]]:
-    """Largest |command| per flag that the footstep planner can realise, with the reason.
-
-    The planner clips each step to the kinematic box and each turn to the largest yaw step, so
-    faster commands are walked at these speeds.
-    """
-    T = params.T_step_s
-    lower, upper = kinematic_box(params, 1)
-    sideways_m = float(0.5 * (upper[1] - lower[1]))  # per step: the soles may not come closer than the box allows
-    return {
-        "--vx": (0.5 * params.kin_box_x_m / T, f"{0.5 * params.kin_box_x_m:g} m forward per {T:g} s step"),
-        "--vy": (sideways_m / T, f"{sideways_m:.3g} m sideways per {T:g} s step"),
-        "--omega": (params.max_yaw_step_rad / T, f"{params.max_yaw_step_rad:g} rad per {T:g} s step"),
-    }
+#: The command-line flag of each field of :class:`~robust_ismpc.core.planner.WalkCommand`.
+COMMAND_FIELDS = {"--vx": "vx_mps", "--vy": "vy_mps", "--omega": "omega_radps"}
 
 
 def limit_command(robot: str, params, requested: dict[str, float]) -> tuple[dict[str, float], list[str]]:
@@ -55,7 +43,7 @@ def limit_command(robot: str, params, requested: dict[str, float]) -> tuple[dict
     limits = command_limits(params)
     applied, warnings = {}, []
     for flag, value in requested.items():
-        limit, why = limits[flag]
+        limit, why = limits[COMMAND_FIELDS[flag]]
         unit = "rad/s" if flag == "--omega" else "m/s"
         applied[flag] = max(-limit, min(limit, value))
         if abs(value) > limit * (1 + 1e-9):

@@ -16,6 +16,7 @@ Times: step :math:`j` starts at ``ss_start_s[j]``; its touchdown (end of single 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 
@@ -99,6 +100,12 @@ class FootstepPlan:
     def end_s(self) -> float:
         """End of the last step's double support [s]: the plan covers times before it."""
         return float(self.ss_start_s[-1] + self.T_ss_s[-1] + self.T_ds_s[-1])
+
+    @overload
+    def step_at(self, t_s: float) -> int: ...
+
+    @overload
+    def step_at(self, t_s: np.ndarray) -> np.ndarray: ...
 
     def step_at(self, t_s: float | np.ndarray) -> np.ndarray | int:
         """Index j of the step under way at ``t_s`` (ss_start[j] <= t < next start).

@@ -106,6 +106,28 @@ def kinematic_bounds(robot: RobotParams, sides: np.ndarray) -> tuple[np.ndarray,
     return np.where(left, left_lo, right_lo), np.where(left, left_hi, right_hi)
 
 
+def command_limits(robot: RobotParams) -> dict[str, tuple[float, str]]:
+    """Largest |command| per :class:`WalkCommand` field that the footstep planner can realise,
+    with the reason.
+
+    The planner clips each step to the kinematic box and each turn to the largest yaw step, so
+    faster commands are walked at these speeds.
+
+    Returns
+    -------
+    dict
+        ``vx_mps``, ``vy_mps`` [m/s] and ``omega_radps`` [rad/s] -> (limit, why).
+    """
+    T = robot.T_step_s
+    lower, upper = kinematic_box(robot, 1)
+    sideways_m = float(0.5 * (upper[1] - lower[1]))  # per step: the soles may not come closer than the box allows
+    return {
+        "vx_mps": (0.5 * robot.kin_box_x_m / T, f"{0.5 * robot.kin_box_x_m:g} m forward per {T:g} s step"),
+        "vy_mps": (sideways_m / T, f"{sideways_m:.3g} m sideways per {T:g} s step"),
+        "omega_radps": (robot.max_yaw_step_rad / T, f"{robot.max_yaw_step_rad:g} rad per {T:g} s step"),
+    }
+
+
 def plan_footsteps(
     robot: RobotParams,
     command: VelocityCommand,
@@ -211,7 +233,7 @@ def plan_footsteps(
 
     box_half = np.tile(0.5 * np.array([robot.zmp_box_x_m, robot.zmp_box_y_m]), (n, 1))
     half_gap = 0.5 * np.linalg.norm(left - right)
-    box_half[0] = [0.5 * robot.zmp_box_x_m, half_gap + 0.5 * robot.zmp_box_y_m]
+    box_half[0] = (0.5 * robot.zmp_box_x_m, half_gap + 0.5 * robot.zmp_box_y_m)
     return FootstepPlan(
         pos_m=pos.copy(),
         box_half_m=box_half,

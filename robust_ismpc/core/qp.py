@@ -167,8 +167,13 @@ class QpsolversSolver(QpSolver):
     options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        import qpsolvers
-
+        try:
+            import qpsolvers
+        except ImportError:
+            raise ParameterError(
+                f"QP solver {self.backend!r} goes through qpsolvers, which is not installed: "
+                "pip install 'robust-ismpc[solvers]' (or use the default, daqp)"
+            ) from None
         if self.backend not in qpsolvers.available_solvers:
             raise ParameterError(
                 f"QP solver {self.backend!r} is not installed; available: "

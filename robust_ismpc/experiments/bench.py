@@ -189,9 +189,11 @@ MAX_HORIZON = 1000
 
 
 def installed_solvers() -> list[str]:
-    """``daqp`` and the qpsolvers backends installed."""
-    import qpsolvers
-
+    """``daqp`` and the qpsolvers backends installed (``robust-ismpc[solvers]``)."""
+    try:
+        import qpsolvers
+    except ImportError:
+        return ["daqp"]
     return ["daqp", *sorted(s for s in qpsolvers.available_solvers if s != "daqp")]
 
 

@@ -12,8 +12,7 @@ import math
 
 import numpy as np
 
-from ..cli.inputs import command_limits
-from ..core.planner import WalkCommand
+from ..core.planner import WalkCommand, command_limits
 from ..core.reference import FootReference, GaitReference, Support
 from ..robots import RobotSpec
 from ..runs.run import run
@@ -76,7 +75,7 @@ def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,
     """
     spec = load_robot(robot)
     params = spec.params()
-    vx = 0.5 * command_limits(params)["--vx"][0] if vx_mps is None else vx_mps
+    vx = 0.5 * command_limits(params)["vx_mps"][0] if vx_mps is None else vx_mps
     report = {"robot": robot, "robot_name": spec.name, "mass_kg": round(spec.mass_kg, 3),
               "com_height_m": round(spec.com_height_m, 3), "stand": stand(spec, stand_s)}
     start_s = 3.0 * params.T_step_s  # the plan stands two steps and shifts onto a foot in one

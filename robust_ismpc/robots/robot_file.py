@@ -115,7 +115,7 @@ def _simulation_table(toml_path: Path, table: Any) -> dict[str, Any]:
     """The ``[simulation]`` table of a robot file, checked (ParameterError naming file and key)."""
     if not isinstance(table, dict):
         raise ParameterError(f"{toml_path}: simulation must be a table of {', '.join(_SIMULATION_KEYS)}")
-    values = {}
+    values: dict[str, Any] = {}
     for key, value in table.items():
         kind = _SIMULATION_KEYS.get(key)
         if kind is None:
@@ -163,8 +163,6 @@ class RobotFile:
         The file [absolute path].
     table : dict
         Its TOML content.
-    model_path : Path
-        The MJCF scene it names [absolute path].
     foot_frame_type : str
         ``"site"`` or ``"body"``; ``"site"`` when the file rotates its soles (``*_sole_quat``).
     feet : tuple of 2 str
@@ -187,7 +185,6 @@ class RobotFile:
 
     path: Path
     table: dict
-    model_path: Path
     foot_frame_type: str
     feet: tuple[str, str]
     offsets: tuple[tuple[float, float, float], tuple[float, float, float]]
@@ -197,6 +194,16 @@ class RobotFile:
     sole_outline_m: tuple[tuple[float, float], ...]
     sole_size: dict
     simulation: dict
+
+    def model_path(self) -> Path:
+        """The MJCF scene the file names [absolute path].
+
+        Raises
+        ------
+        ModelError
+            The model file, or the package said to ship it (``model_package``), is missing.
+        """
+        return _resolve_model_path(self.path, self.table)
 
     @property
     def leg_joints(self) -> tuple[str, ...]:
@@ -218,7 +225,7 @@ def read_robot_file(path: str | Path) -> RobotFile:
     ParameterError
         Missing, unknown or ill-typed keys.
     ModelError
-        The file or its model file is missing.
+        The file is missing (its model is looked for by :meth:`RobotFile.model_path`).
     """
     toml_path = Path(path).resolve()
     if not toml_path.is_file():
@@ -236,7 +243,10 @@ def read_robot_file(path: str | Path) -> RobotFile:
             f"{toml_path}: unknown keys {', '.join(unknown)}; allowed: "
             f"{', '.join(_REQUIRED_KEYS + _OPTIONAL_KEYS)}"
         )
-    model_path = _resolve_model_path(toml_path, table)
+    if not isinstance(table["model"], str) or not table["model"]:
+        raise ParameterError(f"{toml_path}: 'model' must be a path string, got {table['model']!r}")
+    if not isinstance(table.get("model_package", ""), str):
+        raise ParameterError(f"{toml_path}: 'model_package' must be a package name, got {table['model_package']!r}")
     frame_type = table["foot_frame_type"]
     if frame_type not in _FRAME_TYPES:
         raise ParameterError(f"{toml_path}: foot_frame_type must be 'site' or 'body', got {frame_type!r}")
@@ -274,7 +284,7 @@ def read_robot_file(path: str | Path) -> RobotFile:
         frame_type, feet = "site", (sole_sites[0][0], sole_sites[1][0])
         offsets = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     return RobotFile(
-        path=toml_path, table=table, model_path=model_path, foot_frame_type=frame_type, feet=feet,
+        path=toml_path, table=table, foot_frame_type=frame_type, feet=feet,
         offsets=offsets, sole_sites=sole_sites, posture=posture, gait_overrides=gait_overrides,
         sole_outline_m=sole_outline, sole_size=sole_size, simulation=simulation,
     )

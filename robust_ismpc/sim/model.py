@@ -178,9 +178,9 @@ def _measure(
     )
 
 
-def _check_names(robot_file: RobotFile, model: mujoco.MjModel) -> None:
+def _check_names(robot_file: RobotFile, model: mujoco.MjModel, model_path: Path) -> None:
     """Raise :class:`ModelError` for a name of the file that the model lacks."""
-    toml_path, table, model_path = robot_file.path, robot_file.table, robot_file.model_path
+    toml_path, table = robot_file.path, robot_file.table
     if not has_floor(model):
         raise ModelError(f"{toml_path}: model {str(model_path)!r} has no floor (a plane geom of the world "
                          "body); point model at a scene file that adds one")
@@ -211,9 +211,9 @@ def load_robot_file(path: str | Path) -> RobotSpec:
         standing posture with tilted soles or soles at different heights.
     """
     robot_file = read_robot_file(path)
-    toml_path, table, model_path = robot_file.path, robot_file.table, robot_file.model_path
+    toml_path, table, model_path = robot_file.path, robot_file.table, robot_file.model_path()
     model = _compile_model(str(model_path), model_path.stat().st_mtime)
-    _check_names(robot_file, model)
+    _check_names(robot_file, model, model_path)
     if robot_file.sole_sites:
         model = _compile_model(str(model_path), model_path.stat().st_mtime, robot_file.sole_sites)
     try:
