@@ -71,28 +71,22 @@ class RobustParams:
         ``persistence_s``) is expected to last [s]. The modified stability constraint treats
         w̃ as constant forever; a disturbance decaying as ``e^{-t/T}`` shifts the DCM by only
         ``ηT / (1 + ηT)`` of that (docs/derivations.md), so the fresh part enters the target
-        scaled by this factor. Default 0.1 s, the length of a push: on the g1 LIP the robust
-        controller then holds at least 0.9× nominal's impulse in the cells where compensating
-        a push as lasting made it fall first (docs/robust.md). ``math.inf``: the fresh part
-        counts in full.
+        scaled by this factor. Default 0.1 s, the length of a push (the choice is measured in
+        docs/robust.md). ``math.inf``: the fresh part counts in full.
     governor : bool
         True (default): the fresh estimate (without the persistence window) enters the mid-range
         target as far as the shifted DCM stays inside the exact feasibility region of the current
         step timing, on each axis of the support frame, in single support
         (:mod:`robust_ismpc.estimation.governor`); a persistent force is then compensated without waiting
         for the persistence window, while a push cannot move the shifted DCM out of the region.
-        False: the persistent part only. On the g1 LIP (0.2 m/s, force from 3 s, 0.1 s pushes in
-        single support) the governor raises the largest constant +x force survived from 20 N to
-        about 37 N and the largest +y / -y push from 37 / 41 N to about 48 / 84 N (measured).
+        False: the persistent part only (what the governor adds: docs/robust.md).
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
         restriction's guarantee holds while w̃ is steady.
     sta : StaParams or None
         Step timing adaptation settings; None: defaults with the safety margin (and trigger
-        distance) set to 1/16 of the smaller ZMP box side. A 2 cm margin does not fit a 3-4 cm
-        box, and with 1/4 or 1/8 of the box the undisturbed gaits of g1, op3 and nao already
-        come that close to their bounds and get re-timed; with 1/16 none of hrp4, g1, op3, nao
-        adapts in 10 s walks forward, backward, sideways and turning (measured).
+        distance) set to 1/16 of the smaller ZMP box side, the largest fraction at which no
+        undisturbed gait adapts (docs/robust.md).
     """
 
     delta_max_mps2: float | None = None

@@ -37,18 +37,12 @@ class SoakSpec:
         Simulated time [s].
     push_max_n : float or None
         Largest push force [N] (0.1 s pushes); None: 8 N scaled by the robot mass relative to
-        the G1's 33.3 kg. On the g1 LIP the robust controller's smallest survived 0.1 s push over
-        directions and single-support phases is 17 N (1.72 N s, ``ismpc sweep``,
-        docs/sweeps.md), and the smallest lateral capacity over all gait phases, double support
-        included, was 11 N for nominal and robust (measured before the feasibility governor); a
-        20 N soak fell after 57 s at an unlucky phase. 8 N stays inside all of these.
+        the G1's 33.3 kg, inside the robust controller's smallest push frontier over directions
+        and gait phases (docs/sweeps.md).
     push_interval_s : tuple of float
         Range of the time between pushes [s].
     vx_mps : float or None
-        Forward speed command [m/s]; None: :data:`DEFAULT_VX_MPS` of the simulator (0.2 on the
-        LIP, 0.1 in MuJoCo: G1 walking forward undisturbed at 0.2 m/s falls at 32-38 s, lateral
-        drift of the CoM relative to the stance foot over two steps, while at 0.1 m/s it walked
-        200 s; see docs/robots.md).
+        Forward speed command [m/s]; None: :data:`DEFAULT_VX_MPS` of the simulator.
     seed : int
     modules : tuple of str
         Controller modules (default: all three, the robust controller).

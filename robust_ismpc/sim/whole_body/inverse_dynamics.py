@@ -85,9 +85,7 @@ class TorqueControlSettings:
     foot_kp, foot_kd : float
         PD gains of the swinging sole's position and orientation [1/s²], [1/s]; the sole's
         reference acceleration (a finite difference of the reference velocities of successive
-        control ticks) is fed forward. With 100 /s² and 20 /s and no feedforward every G1 foot
-        landed about 2 cm too far forward (41 cm after a 20 s walk at 0.2 m/s); now 5 cm behind
-        after 20 s.
+        control ticks) is fed forward.
     root_kp, root_kd : float
         PD gains of the root orientation towards the IK configuration's [1/s²], [1/s].
     posture_kp, posture_kd : float
