@@ -20,6 +20,7 @@ from mujoco_fixtures import (  # noqa: F401  (fixtures)
 
 from robust_ismpc.exceptions import ModelError, ParameterError
 from robust_ismpc.robots import RobotSpec
+from robust_ismpc.sim.forces import Force, ForceSchedule, Impulse
 from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation
 from robust_ismpc.sim.model import compile_model
 from robust_ismpc.sim.robot import (
@@ -31,7 +32,7 @@ from robust_ismpc.sim.robot import (
     sole_corners,
     standing_state,
 )
-from robust_ismpc.sim.scene import Force, ForceSchedule, Impulse, Payload, SwingingBall, build_scene
+from robust_ismpc.sim.scene import Payload, SwingingBall, build_scene
 from robust_ismpc.sim.video import VideoRecorder, VideoSettings
 
 mujoco = pytest.importorskip("mujoco")

@@ -35,11 +35,12 @@ import numpy as np
 from ..control.walk import make_controller, start_walk
 from ..estimation.estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
+from ..sim.forces import Force
 from ..sim.instability import simulation_failure
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
 from ..sim.model import load_robot
 from ..sim.robot import FallCriteria, distance_outside
-from ..sim.scene import Force, SceneMonitor, scene_forces
+from ..sim.scene import SceneMonitor, scene_forces
 from ..sim.video import open_frame_sink
 from ..sim.whole_body.ik import IkSettings
 from ..sim.whole_body.inverse_dynamics import TorqueControlSettings

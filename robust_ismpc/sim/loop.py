@@ -35,9 +35,10 @@ import numpy as np
 from ..core.reference import GaitReference, Measurement
 from ..exceptions import ParameterError
 from ..robots.spec import RobotSpec
+from .forces import Disturbance, ForceSchedule
 from .model import compile_model
 from .robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
-from .scene import Disturbance, ForceSchedule, SceneItem, build_scene, set_scene_initial_state
+from .scene import SceneItem, build_scene, set_scene_initial_state
 from .video import VideoRecorder
 from .whole_body.ik import ActuatorMap, IkSettings, WholeBodyIk
 from .whole_body.inverse_dynamics import InverseDynamicsQp, TorqueControlSettings, actuator_torque_limits_nm
