@@ -121,7 +121,7 @@ def test_torque_limits_come_from_every_actuator_kind():
     force range, G1's by its joints' actuator force range; a servo's control range (an angle) is
     not a torque limit."""
     from robust_ismpc.sim.model import load_robot
-    from robust_ismpc.sim.whole_body.inverse_dynamics import actuator_torque_limits_nm
+    from robust_ismpc.sim.whole_body.actuators import actuator_torque_limits_nm
 
     h1 = _menagerie_model("unitree_h1")
     np.testing.assert_allclose(actuator_torque_limits_nm(h1), h1.actuator_ctrlrange)
@@ -138,7 +138,7 @@ def test_torque_motors_keep_the_limits_of_the_actuators_they_replace():
 
     from robust_ismpc.sim.loop import _make_torque_motors
     from robust_ismpc.sim.model import load_robot
-    from robust_ismpc.sim.whole_body.inverse_dynamics import actuator_torque_limits_nm
+    from robust_ismpc.sim.whole_body.actuators import actuator_torque_limits_nm
 
     for model in (_menagerie_model("unitree_h1"), compile_model(load_robot("op3"))):
         model = copy.deepcopy(model)

@@ -10,7 +10,8 @@ from mujoco_fixtures import double_support_reference, g1_spec, robot_spec  # noq
 from robust_ismpc.exceptions import ParameterError
 from robust_ismpc.robots import RobotSpec
 from robust_ismpc.sim.loop import initial_state
-from robust_ismpc.sim.whole_body.ik import ActuatorMap, IkSettings, WholeBodyIk
+from robust_ismpc.sim.whole_body.actuators import ActuatorMap
+from robust_ismpc.sim.whole_body.ik import IkSettings, WholeBodyIk
 
 
 def _com_errors(spec: RobotSpec, settings: IkSettings, n_steps: int) -> tuple[list[float], WholeBodyIk]:

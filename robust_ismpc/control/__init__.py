@@ -1,0 +1,1 @@
+"""Controllers: nominal IS-MPC, its robustness modules, step timing adaptation, starting a walk."""

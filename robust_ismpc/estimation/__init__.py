@@ -1,0 +1,1 @@
+"""Estimation: the MPC's start state and the disturbance, from the robot's measurements."""

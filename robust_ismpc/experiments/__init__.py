@@ -1,0 +1,1 @@
+"""Experiments built from runs: the paper's scenarios, push sweeps, soaks, benchmarks, robot checks."""

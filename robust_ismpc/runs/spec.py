@@ -1,6 +1,6 @@
-"""One closed-loop run described as data: build the plan and controller, simulate, summarise.
+"""A closed-loop run described as data (:class:`RunSpec`), its result, and the gait it uses.
 
-This is the Python API behind ``ismpc run``; it returns results and writes nothing.
+:func:`robust_ismpc.runs.run.run` executes a spec.
 """
 
 from __future__ import annotations

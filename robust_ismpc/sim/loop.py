@@ -40,8 +40,9 @@ from .model import compile_model
 from .robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
 from .scene import SceneItem, build_scene, set_scene_initial_state
 from .video import VideoRecorder
-from .whole_body.ik import ActuatorMap, IkSettings, WholeBodyIk
-from .whole_body.inverse_dynamics import InverseDynamicsQp, TorqueControlSettings, actuator_torque_limits_nm
+from .whole_body.actuators import ActuatorMap, actuator_torque_limits_nm
+from .whole_body.ik import IkSettings, WholeBodyIk
+from .whole_body.inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
 
 logger = logging.getLogger("robust_ismpc")
 

@@ -41,37 +41,9 @@ from ...exceptions import ParameterError, SolverError
 from ...validation import check_nonnegative
 from ..model import compile_model
 from ..robot import MujocoRobot
-from .ik import ActuatorMap
+from .actuators import ActuatorMap, actuator_torque_limits_nm
 
 SIDES = ("left", "right")
-
-
-def actuator_torque_limits_nm(model: mujoco.MjModel) -> np.ndarray:
-    """The joint torque interval each actuator of ``model`` can apply, shape (nu, 2) [N m].
-
-    The intersection, through the actuator's gear, of its force range (if force-limited), a
-    motor's control range times its gain (if control-limited; a position servo's control range is
-    an angle, not a torque) and its joint's actuator force range (if limited); ±inf where nothing
-    limits it.
-    """
-    limits = np.tile([-np.inf, np.inf], (model.nu, 1))
-    for a in range(model.nu):
-        gear = float(model.actuator_gear[a, 0])
-        gain = float(model.actuator_gainprm[a, 0])
-        motor = (int(model.actuator_biastype[a]) == int(mujoco.mjtBias.mjBIAS_NONE)
-                 or not np.any(model.actuator_biasprm[a, :3]))
-        ranges = []
-        if model.actuator_forcelimited[a]:
-            ranges.append(model.actuator_forcerange[a] * gear)
-        if motor and model.actuator_ctrllimited[a]:
-            ranges.append(model.actuator_ctrlrange[a] * gain * gear)
-        joint = int(model.actuator_trnid[a, 0])
-        if model.jnt_actfrclimited[joint]:
-            ranges.append(model.jnt_actfrcrange[joint])
-        for bound in ranges:
-            low, high = float(min(bound)), float(max(bound))
-            limits[a] = max(limits[a, 0], low), min(limits[a, 1], high)
-    return limits
 
 
 @dataclass(frozen=True)
