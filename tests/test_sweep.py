@@ -9,7 +9,6 @@ import pytest
 
 from robust_ismpc.cli import main
 from robust_ismpc.exceptions import ParameterError
-from robust_ismpc.experiments import sweep
 from robust_ismpc.experiments.sweep import (
     COLUMNS,
     Bisection,
@@ -24,6 +23,7 @@ from robust_ismpc.experiments.sweep import (
     run_sweep,
     trial_seed,
 )
+from robust_ismpc.experiments.sweep import backends as sweep_backends
 
 
 def tiny_config(**changes) -> SweepConfig:
@@ -270,7 +270,7 @@ def test_interrupt_keeps_complete_rows_and_exits_130(tmp_path, capsys, monkeypat
     args = ["sweep", "--robot", "g1", "--controllers", "nominal", "--direction", "90", "--phase", "0.5",
             "--impulse-max", "16", "--iterations", "3", "--pushed-step", "1", "--duration", "1", "--seed", "3",
             "--workers", "1", "--out", str(out), "--quiet"]
-    real = sweep.run_trial
+    real = sweep_backends.run_trial
     calls = []
 
     def interrupted(trial):
@@ -279,11 +279,11 @@ def test_interrupt_keeps_complete_rows_and_exits_130(tmp_path, capsys, monkeypat
             raise KeyboardInterrupt
         return real(trial)
 
-    monkeypatch.setattr(sweep, "run_trial", interrupted)
+    monkeypatch.setattr(sweep_backends, "run_trial", interrupted)
     assert main(args) == 130
     assert "rerun the same command to resume" in capsys.readouterr().err
     assert len(read_runs(out / "runs.csv")) == 2
-    monkeypatch.setattr(sweep, "run_trial", real)
+    monkeypatch.setattr(sweep_backends, "run_trial", real)
     assert main(args) == 0
     rows = read_runs(out / "runs.csv")
     reference = run_sweep(tiny_config(), tmp_path / "ref", workers=1)

@@ -4,6 +4,10 @@ matplotlib is imported on first use, with the Agg backend.
 """
 
 from .figure import pyplot, save_figure
+from .frontiers import plot_frontier_phase, plot_frontier_polar
 from .runs import detail_window, plot_comparison, plot_run, plot_swing_cop_fit
 
-__all__ = ["detail_window", "plot_comparison", "plot_run", "plot_swing_cop_fit", "pyplot", "save_figure"]
+__all__ = [
+    "detail_window", "plot_comparison", "plot_frontier_phase", "plot_frontier_polar", "plot_run", "plot_swing_cop_fit",
+    "pyplot", "save_figure",
+]

@@ -1,0 +1,150 @@
+"""Executors of trials: in-process, a local process pool, or Ray."""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+
+from ...exceptions import ParameterError
+from .config import BACKENDS
+from .trials import Trial, TrialResult, run_trial
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``), so a
+    sweep killed by SIGKILL leaves no orphaned workers; exit now if the parent is already gone."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        pr_set_pdeathsig = 1
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: the parent stops its workers on SIGINT/SIGTERM
+        pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+
+def _worker_init(log_level: int, parent_pid: int | None = None) -> None:
+    """Local worker: leave Ctrl-C and SIGTERM to the parent (it stops the workers), die with the
+    parent, and log like it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
+    logging.getLogger("robust_ismpc").setLevel(log_level)
+
+
+class _SerialBackend:
+    """Runs trials in this process, one at a time (``workers=1``)."""
+
+    name = "serial"
+
+    def __init__(self) -> None:
+        self._queue: list[tuple[object, Trial]] = []
+        self._count = 0
+
+    def submit(self, trial: Trial):
+        self._count += 1
+        handle = self._count
+        self._queue.append((handle, trial))
+        return handle
+
+    def wait(self, handles) -> list[tuple[object, TrialResult]]:
+        handle, trial = self._queue.pop(0)
+        return [(handle, run_trial(trial))]
+
+    def close(self, interrupted: bool = False) -> None:
+        self._queue.clear()
+
+
+class _LocalBackend:
+    """A :class:`concurrent.futures.ProcessPoolExecutor` of ``workers`` processes."""
+
+    name = "local"
+
+    def __init__(self, workers: int):
+        from concurrent.futures import ProcessPoolExecutor
+
+        level = logging.getLogger("robust_ismpc").getEffectiveLevel()
+        self._pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                                         initargs=(level, os.getpid()))
+
+    def submit(self, trial: Trial):
+        return self._pool.submit(run_trial, trial)
+
+    def wait(self, handles) -> list[tuple[object, TrialResult]]:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        done, _ = wait(handles, return_when=FIRST_COMPLETED)
+        return [(f, f.result()) for f in done]
+
+    def close(self, interrupted: bool = False) -> None:
+        if interrupted:
+            # The workers ignore SIGINT: stop them (trials under way are lost, not half-written);
+            # the pool then sees its processes gone and its manager thread ends.
+            processes = list((getattr(self._pool, "_processes", None) or {}).values())
+            for process in processes:
+                if process.is_alive():
+                    process.terminate()
+            for process in processes:
+                process.join(timeout=5.0)
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class _RayBackend:
+    """The same trials as Ray tasks on a local Ray instance (``ray.init()``)."""
+
+    name = "ray"
+
+    def __init__(self, workers: int):
+        import ray
+
+        self._ray = ray
+        self._started = False
+        if not ray.is_initialized():
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR)
+            self._started = True
+        self._remote = ray.remote(num_cpus=1)(run_trial)
+
+    def submit(self, trial: Trial):
+        return self._remote.remote(trial)
+
+    def wait(self, handles) -> list[tuple[object, TrialResult]]:
+        ready, _ = self._ray.wait(list(handles), num_returns=1)
+        return [(ref, self._ray.get(ref)) for ref in ready]
+
+    def close(self, interrupted: bool = False) -> None:
+        if self._started:
+            self._ray.shutdown()
+
+
+def ray_available() -> bool:
+    """True if ``import ray`` works."""
+    try:
+        import ray  # noqa: F401
+    except Exception:
+        return False
+    return True
+
+
+def make_backend(backend: str, workers: int):
+    """The executor of trials: ``local`` (processes; in-process when ``workers == 1``) or ``ray``.
+
+    Raises
+    ------
+    ParameterError
+        Unknown backend, bad worker count, or Ray requested but not installed.
+    """
+    if backend not in BACKENDS:
+        raise ParameterError(f"unknown backend {backend!r}; use one of: {', '.join(BACKENDS)}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    if backend == "ray":
+        if not ray_available():
+            raise ParameterError("--backend ray needs Ray, which is not installed: pip install ray")
+        return _RayBackend(workers)
+    if workers == 1:
+        return _SerialBackend()
+    return _LocalBackend(workers)
