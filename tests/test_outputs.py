@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robust_ismpc.plotting import DETAIL_S, OVERVIEW_POINTS, detail_window, plot_run
+from robust_ismpc.plotting.runs import DETAIL_S, OVERVIEW_POINTS, detail_window, plot_run
 from robust_ismpc.runs.trace import CHANNELS, Trace
 
 ROOT = Path(__file__).resolve().parent.parent

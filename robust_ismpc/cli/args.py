@@ -86,6 +86,13 @@ def robot_help(mujoco_only: bool = False) -> str:
             f"{files}; default g1")
 
 
+def _add_output_arguments(p: argparse.ArgumentParser, what: str = "output directory",
+                          overwrite_help: str = "allow writing into an existing non-empty --out") -> None:
+    """``--out`` (required; ``what`` is its help) and ``--overwrite``."""
+    p.add_argument("--out", required=True, help=what)
+    p.add_argument("--overwrite", action="store_true", help=overwrite_help)
+
+
 def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True) -> None:
     p.add_argument("--sim", default="lip", help="simulator: lip (reduced model) or mujoco (full robot); default lip")
     p.add_argument("--robot", default="g1", help=robot_help())
@@ -106,8 +113,7 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--delta-max", type=_finite_float("delta-max"), default=None,
                    help="deviation bound Δmax for the ZMP restriction [m/s²] (default: module default)")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
-    p.add_argument("--out", required=True, help="output directory (summary.json, gait.png, trace.npz)")
-    p.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    _add_output_arguments(p, "output directory (summary.json, gait.png, trace.npz)")
     p.add_argument("--video", action="store_true",
                    help="mujoco only: also write an mp4 (offscreen rendering) with time, controller and push arrows")
     if with_controller:
@@ -173,8 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="controller modules (default: all three, the robust controller)")
     p_soak.add_argument("--whole-body", default=None, choices=("servo", "torque"),
                         help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
-    p_soak.add_argument("--out", required=True, help="output directory")
-    p_soak.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    _add_output_arguments(p_soak)
     p_soak.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
     p_cal = sub.add_parser(
@@ -185,8 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_cal.add_argument("--robot", default="g1", help=robot_help(mujoco_only=True))
     p_cal.add_argument("--vx", type=_finite_float("vx"), default=0.2, help="forward velocity command [m/s] (0.2)")
     p_cal.add_argument("--duration", type=_duration(), default=8.0, help="walk length [s] (8)")
-    p_cal.add_argument("--out", required=True, help="output directory")
-    p_cal.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    _add_output_arguments(p_cal)
 
     p_bench = sub.add_parser("bench", help="time the MPC cycle at several horizons",
                              description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200.")
@@ -240,10 +244,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
     p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
-    p_sweep.add_argument("--out", required=True, help="output directory")
-    p_sweep.add_argument("--overwrite", action="store_true",
-                         help="discard an earlier sweep in --out (without it, the same sweep resumes and a "
-                         "different one is refused)")
+    _add_output_arguments(p_sweep, overwrite_help="discard an earlier sweep in --out (without it, the same sweep "
+                          "resumes and a different one is refused)")
     p_sweep.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
     p_robot = sub.add_parser("robot", help="add a robot: draft its robot file from a model, check a robot file",
@@ -272,8 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
                          help="walking speed [m/s] (default: half of what the robot's steps allow)")
     p_check.add_argument("--walk-duration", type=_positive_float("walk-duration", MAX_SIM_DURATION_S), default=5.0,
                          help="walking time after the first step [s] (default 5)")
-    p_check.add_argument("--out", required=True, help="output directory")
-    p_check.add_argument("--overwrite", action="store_true", help="allow writing into an existing non-empty --out")
+    _add_output_arguments(p_check)
     return parser
 
 
