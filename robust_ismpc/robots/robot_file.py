@@ -7,12 +7,12 @@ The format is in ``docs/robots.md``. :func:`read_robot_file` returns the descrip
 from __future__ import annotations
 
 import importlib.util
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomllib
 
 from ..exceptions import ModelError, ParameterError
 from ..validation import check_vector
