@@ -74,6 +74,18 @@ def test_solution_obeys_the_dynamics_and_the_contact_cones(g1_spec):
     assert np.linalg.norm(com[:2] - controller.target(1.5)[:2]) < 0.01
 
 
+def test_one_inverse_dynamics_qp_per_physics_step(g1_spec):
+    """Torque control solves the inverse-dynamics QP once per physics step, not again when a
+    new reference arrives (an operation count, the CI's speed regression check)."""
+    sim = MujocoSimulation(g1_spec, settings=LoopSettings(torque_control=TorqueControlSettings()))
+    controller = ComShiftController(g1_spec, (0.0, 0.01))
+    ticks = 20
+    for _ in range(ticks):
+        step_simulation(sim, controller, 0.01)
+    assert sim.substeps == 5
+    assert sim.inverse_dynamics.solve_count == ticks * sim.substeps
+
+
 def test_g1_walks_with_torque_control():
     """A 5 s forward walk with the inverse-dynamics QP: no fall, the measured CoP never leaves
     the support polygon, and every landed foot is where the plan put it relative to the other

@@ -299,7 +299,8 @@ class MujocoSimulation:
             else:
                 torques = self.ik.static_torques(share, left_contact, right.in_contact, force)
             self._feedforward = torques[self.actuators.ik_dof_index]
-        self._apply_targets()
+        if self.actuators.is_position.all():  # motors get their torques at every physics step (advance)
+            self._apply_targets()
 
     def advance(self, recorder: VideoRecorder | None = None) -> tuple[np.ndarray, float]:
         """Step the physics over one control period; returns (last applied force (3,) [N], render time [s]).

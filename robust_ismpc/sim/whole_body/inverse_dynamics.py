@@ -213,6 +213,8 @@ class InverseDynamicsQp:
         #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
         #: force then moment about the sole centre), for inspection and tests.
         self.last_qacc: np.ndarray | None = None
+        #: QPs solved so far (one per physics step under torque control).
+        self.solve_count = 0
         self.last_wrenches: dict[str, np.ndarray] = {}
 
     def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -237,6 +239,7 @@ class InverseDynamicsQp:
             After more than 50 failed solves in the run.
         """
         m, d, s = self.model, self.data, self.settings
+        self.solve_count += 1
         scene = self.scene_data
         d.qpos[:] = scene.qpos[self._scene_qpos]
         d.qvel[:] = scene.qvel[self._scene_qvel]
