@@ -85,7 +85,16 @@ class ContactState:
 
     def moment_about(self, point_m: np.ndarray) -> np.ndarray:
         """Moment of the contact forces about ``point_m`` (3,) [N m], shape (3,)."""
-        return self.moment_origin_nm - np.cross(point_m, self.force_n)
+        return self.moment_origin_nm - _cross(np.asarray(point_m, dtype=float), self.force_n)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of 3-vectors along the last axis (``np.cross`` without its overhead)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
 
 
 def _yaw_of(rot: np.ndarray) -> float:
@@ -261,7 +270,6 @@ class MujocoRobot:
             self._geom_side[self._foot_geoms[side]] = i
         self._is_ground = np.zeros(model.ngeom, dtype=bool)
         self._is_ground[self._ground_geoms] = True
-        self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
 
     def foot_geom_ids(self) -> np.ndarray:
@@ -279,7 +287,7 @@ class MujocoRobot:
         xipos = d.xipos[ids]
         cvel = d.cvel[ids]
         omega = cvel[:, :3]
-        return xipos, cvel[:, 3:] + np.cross(omega, xipos - d.subtree_com[m.body_rootid[ids]]), omega
+        return xipos, cvel[:, 3:] + _cross(omega, xipos - d.subtree_com[m.body_rootid[ids]]), omega
 
     def com(self) -> tuple[np.ndarray, np.ndarray]:
         """Whole-body CoM of the robot (disturbance bodies excluded).
@@ -310,7 +318,7 @@ class MujocoRobot:
 
     def _angular_momentum_of(self, xipos, vel_points, omega, com, vel) -> np.ndarray:
         ids = self.robot_body_ids
-        orbital = self._body_mass[:, None] * np.cross(xipos - com, vel_points - vel)
+        orbital = self._body_mass[:, None] * _cross(xipos - com, vel_points - vel)
         rot = self.data.ximat[ids].reshape(-1, 3, 3)
         local = np.einsum("nji,nj->ni", rot, omega) * self.model.body_inertia[ids]
         spin = np.einsum("nij,nj->ni", rot, local)
@@ -364,25 +372,32 @@ class MujocoRobot:
         force_sum = np.zeros(3)
         moment_origin = np.zeros(3)
         moment = np.zeros((2, 2))  # per side: sum(p_xy f_z - p_z f_xy)
-        for i in range(d.ncon):
-            con = d.contact[i]
+        n = d.ncon
+        if n:
+            con = d.contact
             g1, g2 = con.geom1, con.geom2
-            if self._is_ground[g1] and self._geom_side[g2] >= 0:
-                side, sign = self._geom_side[g2], 1.0
-            elif self._is_ground[g2] and self._geom_side[g1] >= 0:
-                side, sign = self._geom_side[g1], -1.0
-            else:
-                continue
-            mujoco.mj_contactForce(m, d, i, self._wrench)
-            frame = con.frame.reshape(3, 3)
-            force = sign * (frame.T @ self._wrench[:3])
-            if force[2] <= 0.0:
-                continue
-            p = con.pos
-            fz[side] += force[2]
-            force_sum += force
-            moment_origin += np.cross(p, force)
-            moment[side] += p[:2] * force[2] - p[2] * force[:2]
+            side1, side2 = self._geom_side[g1], self._geom_side[g2]
+            ground_first = self._is_ground[g1] & (side2 >= 0)
+            ground_second = self._is_ground[g2] & (side1 >= 0) & ~ground_first
+            idx = np.flatnonzero(ground_first | ground_second)
+            if idx.size:
+                first = ground_first[idx]
+                sides = np.where(first, side2[idx], side1[idx])
+                local = np.empty((idx.size, 6))
+                for k, i in enumerate(idx.tolist()):
+                    mujoco.mj_contactForce(m, d, i, local[k])
+                # the force on the foot in the world frame: ±frameᵀ f_local
+                forces = np.einsum("kji,kj->ki", con.frame[idx].reshape(-1, 3, 3), local[:, :3])
+                forces[~first] *= -1.0
+                pressing = forces[:, 2] > 0.0
+                forces, pos, sides = forces[pressing], con.pos[idx][pressing], sides[pressing]
+                force_sum = forces.sum(axis=0)
+                moment_origin = _cross(pos, forces).sum(axis=0)
+                per_contact = pos[:, :2] * forces[:, 2:3] - pos[:, 2:3] * forces[:, :2]
+                for s in range(2):
+                    on_side = sides == s
+                    fz[s] = forces[on_side, 2].sum()
+                    moment[s] = per_contact[on_side].sum(axis=0)
         in_contact = fz > self.contact_threshold_n
         cops: list[np.ndarray | None] = [moment[s] / fz[s] if in_contact[s] else None for s in range(2)]
         total = fz[in_contact].sum()

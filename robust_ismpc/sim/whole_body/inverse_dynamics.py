@@ -183,6 +183,9 @@ class InverseDynamicsQp:
         self.settings = settings
         self.scene_data = robot.data
         self.model = copy.deepcopy(compile_model(robot.spec))
+        # the QP needs the mass matrix, bias forces and Jacobians only: no collision detection or
+        # constraint assembly in its mj_forward
+        self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
         self.data = mujoco.MjData(self.model)
         self.robot = MujocoRobot(robot.spec, self.model, self.data)
         self._scene_qpos, self._scene_qvel = _state_index(self.model, robot.model)
@@ -201,6 +204,9 @@ class InverseDynamicsQp:
         self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
         nv = model.nv
         self._M = np.zeros((nv, nv))
+        # the Hessian's constant part: the regularisation and the posture task (a selection of q̈)
+        self._H_const = settings.regularisation * np.eye(nv + 12)
+        self._H_const[self._dof, self._dof] += settings.posture_weight
         self._jac_com_prev: np.ndarray | None = None
         self._ang_prev: np.ndarray | None = None
         # reference sole velocities of the previous control tick, for the swing acceleration
@@ -271,23 +277,33 @@ class InverseDynamicsQp:
         real_anchor = np.mean([soles[side][0] for side in stance], axis=0)
         ref_anchor = np.mean([feet[side].pos_m for side in stance], axis=0)
 
-        eq_rows, eq_rhs = [], []
+        # Variables x = (q̈ (nv), left sole wrench (6), right sole wrench (6)). Every task row acts
+        # on q̈ only: its Hessian and gradient terms go into the q̈ block.
+        H = self._H_const.copy()
+        g = np.zeros(n)
+        H_acc, g_acc = H[:nv, :nv], g[:nv]
+
+        def add_task(J: np.ndarray, b: np.ndarray, w: float) -> None:
+            H_acc[...] += w * (J.T @ J)
+            g_acc[...] -= w * (J.T @ b)
+
+        contact_sides = [side for side in SIDES if side in stance and feet[side].in_contact]
+        n_eq = 6 + 6 * len(contact_sides)
+        A_eq = np.zeros((n_eq, n))
+        rhs = np.empty(n_eq)
         # floating-base rows of the dynamics
-        base = np.zeros((6, n))
-        base[:, :nv] = M[:6]
-        base[:, nv:nv + 6] = -jac["left"][0][:, :6].T
-        base[:, nv + 6:] = -jac["right"][0][:, :6].T
-        eq_rows.append(base)
-        eq_rhs.append(-bias[:6])
-        tasks: list[tuple[np.ndarray, np.ndarray, float]] = []
+        A_eq[:6, :nv] = M[:6]
+        A_eq[:6, nv:nv + 6] = -jac["left"][0][:, :6].T
+        A_eq[:6, nv + 6:] = -jac["right"][0][:, :6].T
+        rhs[:6] = -bias[:6]
+        row_eq = 6
         for side in SIDES:
             J, Jdot = jac[side]
-            row = np.zeros((6, n))
-            row[:, :nv] = J
             velocity = J @ qvel
-            if side in stance and feet[side].in_contact:
-                eq_rows.append(row)
-                eq_rhs.append(-Jdot @ qvel - s.contact_damping * velocity)
+            if side in contact_sides:
+                A_eq[row_eq:row_eq + 6, :nv] = J
+                rhs[row_eq:row_eq + 6] = -Jdot @ qvel - s.contact_damping * velocity
+                row_eq += 6
                 continue
             foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
             target = real_anchor + (foot_pos - ref_anchor)
@@ -295,7 +311,7 @@ class InverseDynamicsQp:
                       + s.foot_kd * (foot_vel - velocity[:3]))
             angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
                        - s.foot_kd * velocity[3:])
-            tasks.append((row, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight))
+            add_task(J, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight)
         # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
         com_vel = jac_com @ qvel
@@ -305,9 +321,7 @@ class InverseDynamicsQp:
         com_target = real_anchor + (com_pos - ref_anchor)
         com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
                    + s.com_kd * (com_vel_ref - com_vel))
-        row = np.zeros((3, n))
-        row[:, :nv] = jac_com
-        tasks.append((row, com_acc - jac_com_dot @ qvel, s.com_weight))
+        add_task(jac_com, com_acc - jac_com_dot @ qvel, s.com_weight)
         # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
         if s.momentum_weight > 0:
             ang = np.zeros((3, nv))
@@ -316,73 +330,62 @@ class InverseDynamicsQp:
             self._ang_prev = ang
             scale = 1.0 / (self.robot.mass_kg * 9.81)
             momentum = ang @ qvel
-            row = np.zeros((3, n))
-            row[:, :nv] = scale * ang
-            tasks.append((row, scale * (-s.momentum_damping * momentum - ang_dot @ qvel), s.momentum_weight))
+            add_task(scale * ang, scale * (-s.momentum_damping * momentum - ang_dot @ qvel), s.momentum_weight)
         # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
         root_rot = d.xmat[self._root].reshape(3, 3)
         target_rot = np.empty(9)
         mujoco.mju_quat2Mat(target_rot, ik_qpos[3:7])
         omega = root_rot @ qvel[3:6]
-        row = np.zeros((3, n))
-        row[:, 3:6] = root_rot
-        tasks.append((row, s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega,
-                      s.root_weight))
-        # posture towards the IK configuration
+        root_error = s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega
+        H_acc[3:6, 3:6] += s.root_weight * (root_rot.T @ root_rot)
+        g_acc[3:6] -= s.root_weight * (root_rot.T @ root_error)
+        # posture towards the IK configuration (its Hessian term is constant, in _H_const)
         act = self.actuators
         q = d.qpos[self._qpos_index]
         v = qvel[self._dof]
-        row = np.zeros((len(self._dof), n))
-        row[np.arange(len(self._dof)), self._dof] = 1.0
         posture = (ik_qacc[act.ik_dof_index] + s.posture_kp * (ik_qpos[act.ik_qpos_index] - q)
                    + s.posture_kd * (ik_qvel[act.ik_dof_index] - v))
-        tasks.append((row, posture, s.posture_weight))
+        g[self._dof] -= s.posture_weight * posture
 
-        H = s.regularisation * np.eye(n)
-        g = np.zeros(n)
-        for A, b, w in tasks:
-            H += w * A.T @ A
-            g -= w * A.T @ b
-
-        ineq, lower, upper = [], [], []
+        # inequalities: a sole in contact keeps its force in the friction pyramid and its centre of
+        # pressure in the shrunk sole; a sole in the air carries no wrench
+        blocks, lower_rows, upper_rows = [], [], []
         for i, side in enumerate(SIDES):
             start = nv + 6 * i
             if not feet[side].in_contact:
-                for k in range(6):
-                    row = np.zeros(n)
-                    row[start + k] = 1.0
-                    ineq.append(row)
-                    lower.append(0.0)
-                    upper.append(0.0)
+                block = np.zeros((6, n))
+                block[:, start:start + 6] = np.eye(6)
+                blocks.append(block)
+                lower_rows.append(np.zeros(6))
+                upper_rows.append(np.zeros(6))
                 continue
-            R = soles[side][1]
-            force = np.zeros((3, n))
-            force[:, start:start + 3] = R.T
-            moment = np.zeros((3, n))
-            moment[:, start + 3:start + 6] = R.T
-            normal = force[2]
-            ineq.append(normal)
-            lower.append(s.min_normal_force_n)
-            upper.append(np.inf)
-            for a, limit in ((force[0], s.friction), (force[1], s.friction), (moment[0], self._half_width),
-                             (moment[1], self._half_length), (moment[2], s.torsion_m)):
-                ineq += [a - limit * normal, -a - limit * normal]
-                lower += [-np.inf, -np.inf]
-                upper += [0.0, 0.0]
+            RT = soles[side][1].T  # rows: the sole's axes in the world
+            wrench_rows = np.zeros((5, 6))  # f_x, f_y, m_x, m_y, m_z in the sole frame
+            wrench_rows[0, :3], wrench_rows[1, :3] = RT[0], RT[1]
+            wrench_rows[2:, 3:] = RT
+            normal = np.zeros(6)
+            normal[:3] = RT[2]
+            limit = np.array([s.friction, s.friction, self._half_width, self._half_length, s.torsion_m])[:, None]
+            block = np.zeros((11, n))
+            block[0, start:start + 6] = normal
+            block[1::2, start:start + 6] = wrench_rows - limit * normal
+            block[2::2, start:start + 6] = -wrench_rows - limit * normal
+            blocks.append(block)
+            lower_rows.append(np.concatenate([[s.min_normal_force_n], np.full(10, -np.inf)]))
+            upper_rows.append(np.concatenate([[np.inf], np.zeros(10)]))
         torque_rows = np.zeros((len(self._dof), n))
         torque_rows[:, :nv] = M[self._dof]
         torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
         torque_rows[:, nv + 6:] = -jac["right"][0][:, self._dof].T
         torque_bias = bias[self._dof]
-        A = np.vstack(eq_rows + [np.array(ineq), torque_rows])
-        rhs = np.concatenate(eq_rhs)
-        upper_all = np.concatenate([rhs, np.array(upper), self._limits[:, 1] - torque_bias])
-        lower_all = np.concatenate([rhs, np.array(lower), self._limits[:, 0] - torque_bias])
+        A = np.vstack([A_eq, *blocks, torque_rows])
+        upper_all = np.concatenate([rhs, *upper_rows, self._limits[:, 1] - torque_bias])
+        lower_all = np.concatenate([rhs, *lower_rows, self._limits[:, 0] - torque_bias])
         finite = 1e9
         upper_all = np.minimum(upper_all, finite)
         lower_all = np.maximum(lower_all, -finite)
         sense = np.zeros(len(upper_all), dtype=np.int32)
-        sense[:len(rhs)] = 5  # equality rows
+        sense[:n_eq] = 5  # equality rows
         H, A = np.ascontiguousarray(H), np.ascontiguousarray(A)
         x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0 and np.isfinite(self._limits).any():
