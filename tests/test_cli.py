@@ -89,6 +89,26 @@ def test_bench_writes_json(tmp_path):
     data = json.loads((tmp_path / "bench.json").read_text())
     h = data["horizons"][0]
     assert h["C"] == 20 and h["solve_ms"]["median"] > 0 and "quadprog" in h["solvers"]
+    assert "commit" in data and data["speed"]["repeats"] == 1
+    rows = data["speed"]["rows"]
+    assert {"lip_cycle_nominal_median_ms", "lip_cycle_robust_p99_ms", "bench_robust_c200_median_ms",
+            "process_lip_s"} <= set(rows)
+    assert "mujoco_torque_tick_ms" not in rows  # only with --mujoco
+
+
+def test_bench_compares_with_a_baseline(tmp_path, capsys):
+    """--baseline prints each speed row's ratio and flags rows 10 % slower or more."""
+    base = {"speed": {"repeats": 1, "rows": {"lip_cycle_nominal_median_ms": 1e-6, "process_lip_s": 1e6}}}
+    (tmp_path / "base.json").write_text(json.dumps(base))
+    argv = ["bench", "--horizons", "20", "--cycles", "50", "--solvers", "daqp", "--quiet",
+            "--baseline", str(tmp_path / "base.json"), "--out", str(tmp_path / "b")]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert "slower than the baseline by 10 % or more: lip_cycle_nominal_median_ms" in captured.err
+    comparison = {c["row"]: c for c in json.loads((tmp_path / "b" / "bench.json").read_text())["comparison"]}
+    assert comparison["lip_cycle_nominal_median_ms"]["regression"] is True
+    assert comparison["process_lip_s"]["regression"] is False and comparison["process_lip_s"]["ratio"] < 1e-3
+    assert set(comparison) == {"lip_cycle_nominal_median_ms", "process_lip_s"}
 
 
 def test_calibrate_writes_the_fit_and_its_figure(tmp_path, capsys):
@@ -118,6 +138,8 @@ BAD_OTHER_ARGS = [
     (["sweep", "--impulse-max", "-10"], "--impulse-max must be a finite number > 0"),
     (["bench", "--horizons", "0"], "--horizons must be between 2 and 1000 samples"),
     (["bench", "--cycles", "5"], "--cycles must be between 10 and 100000"),
+    (["bench", "--repeats", "0"], "--repeats must be from 1 to 50"),
+    (["bench", "--baseline", "no-such-bench.json"], "--baseline 'no-such-bench.json': no such file"),
     (["calibrate", "--robot", "nao"], "unknown robot 'nao'"),
     (["calibrate", "--vx", "0", "--duration", "3"], "no forward swing motion"),
 ]
@@ -135,3 +157,18 @@ def test_bad_input_of_other_commands_exits_2_with_one_line(tmp_path, capsys, arg
     assert len(err.splitlines()) == 1, err
     assert message in err and "Traceback" not in err
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_speed_comparison_flags_rows_by_their_ratio():
+    """compare_speed: ratio now / baseline per shared row; 1.1x or more is a regression."""
+    from robust_ismpc.exceptions import ParameterError
+    from robust_ismpc.experiments.speed import compare_speed
+
+    now = {"speed": {"rows": {"lip_cycle_nominal_median_ms": 0.33, "process_lip_s": 1.2, "mujoco_torque_tick_ms": 5.0}}}
+    base = {"speed": {"rows": {"lip_cycle_nominal_median_ms": 0.30, "process_lip_s": 2.4}}}
+    rows = {c["row"]: c for c in compare_speed(now, base)}
+    assert set(rows) == {"lip_cycle_nominal_median_ms", "process_lip_s"}
+    assert rows["lip_cycle_nominal_median_ms"]["ratio"] == pytest.approx(1.1) and rows["lip_cycle_nominal_median_ms"]["regression"]
+    assert rows["process_lip_s"]["ratio"] == pytest.approx(0.5) and not rows["process_lip_s"]["regression"]
+    with pytest.raises(ParameterError, match="no speed table"):
+        compare_speed(now, {"horizons": []})

@@ -3,10 +3,12 @@ swing-leg CoP fit, MPC timing and the push-recovery frontier."""
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
 
+from ..exceptions import ParameterError
 from .common import (
     _check_sim_flags,
     _end_progress,
@@ -97,15 +99,48 @@ def cmd_bench(args) -> int:
         from ..extras import require_extra
 
         require_extra("sim", "ismpc bench --mujoco")
+    if not 1 <= args.repeats <= 50:
+        raise ParameterError(f"--repeats must be from 1 to 50, got {args.repeats}")
+    baseline = None
+    if args.baseline is not None:
+        baseline = _read_baseline(args.baseline)
     out = None
     if args.out is not None:
         out = _open_out(args, require_empty=False)
-    result = run_bench(args.robot, horizons, args.cycles, solvers, mujoco=args.mujoco)
+    result = run_bench(args.robot, horizons, args.cycles, solvers, mujoco=args.mujoco, repeats=args.repeats,
+                       progress=None if args.quiet else _say)
+    if baseline is not None:
+        from ..experiments.speed import compare_speed
+
+        result["comparison"] = compare_speed(result, baseline)
+        result["baseline"] = {"path": str(Path(args.baseline).resolve()), "commit": baseline.get("commit"),
+                              "date": baseline.get("date")}
     print(format_table(result))
+    regressions = [c["row"] for c in result.get("comparison", []) if c["regression"]]
+    if regressions:
+        _warn(f"slower than the baseline by 10 % or more: {', '.join(regressions)}")
     if out is not None:
         paths = write_bench(result, out)
         print("wrote " + ", ".join(str(p) for p in paths))
     return 0
+
+
+def _say(message: str) -> None:
+    sys.stderr.write(f"bench: {message}\n")
+    sys.stderr.flush()
+
+
+def _read_baseline(path: str) -> dict:
+    """The contents of a previous bench.json; ParameterError naming --baseline when unreadable."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ParameterError(f"--baseline {path!r}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise ParameterError(f"--baseline {path!r} is not a readable bench.json: {exc}") from None
+    if not isinstance(data, dict) or "speed" not in data:
+        raise ParameterError(f"--baseline {path!r} has no speed table (written by an older ismpc bench?)")
+    return data
 
 
 def _sweep_progress(args):

@@ -5,8 +5,8 @@ cycle's QP build, solve and whole-step times are recorded, for the nominal contr
 the robust one (observer + restriction + timing adaptation, with a few pushes so that the
 adaptation runs), split by component. A sample of the QPs solved in the nominal run is then
 solved again by each requested solver (DAQP directly, cold start, and qpsolvers backends) to
-compare solvers on identical problems. Optionally the MuJoCo closed loop's real-time factor is
-measured on a short G1 walk.
+compare solvers on identical problems. The speed table (:mod:`robust_ismpc.experiments.speed`)
+follows.
 """
 
 from __future__ import annotations
@@ -171,16 +171,6 @@ def bench_robust(robot_name: str, mpc: MpcParams, cycles: int) -> dict:
             "lip_realtime_factor": round(rtf, 1), **{f"{k}_ms": v for k, v in parts.items()}}
 
 
-def bench_mujoco(robot_name: str = "g1", duration_s: float = 5.0) -> dict:
-    """Real-time factor of the MuJoCo closed loop (nominal IS-MPC walking 0.2 m/s, no video)."""
-    from ..runs.run import run
-    from ..runs.spec import RunSpec
-
-    summary = run(RunSpec(robot=robot_name, sim="mujoco", command=WalkCommand(0.2), duration_s=duration_s)).summary
-    return {"robot": robot_name, "duration_s": duration_s, "fell": summary["fell"],
-            "realtime_factor": summary.get("realtime_factor"), "cycle_ms": summary["cycle_ms"]}
-
-
 #: Solvers compared by default (those of them that are installed).
 DEFAULT_SOLVERS = ("daqp", "osqp", "proxqp", "quadprog")
 #: Largest --cycles and --horizons accepted (a horizon of C samples builds a QP of about 2 C variables).
@@ -223,16 +213,21 @@ def check_bench_args(horizons_text: str, cycles: int, solvers_text: str | None) 
     return horizons, solvers
 
 
-def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str], mujoco: bool = False) -> dict:
-    """Benchmark every horizon; returns a JSON-serialisable dict."""
+def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str], mujoco: bool = False,
+              repeats: int = 1, progress=None) -> dict:
+    """Benchmark every horizon, then the speed table (:mod:`robust_ismpc.experiments.speed`);
+    returns a JSON-serialisable dict with the machine, the versions and the commit."""
+    from .speed import commit, measure_speed
+
     result = {
         "robot": robot_name,
+        "commit": commit(),
+        "date": time.strftime("%Y-%m-%d %H:%M:%S"),
         "machine": machine(),
         "versions": versions(),
         "horizons": [bench_horizon(robot_name, C, cycles, solvers) for C in horizons],
     }
-    if mujoco:
-        result["mujoco"] = bench_mujoco()
+    result["speed"] = measure_speed(repeats, mujoco=mujoco, progress=progress)
     return result
 
 
@@ -273,10 +268,10 @@ def format_table(result: dict) -> str:
         r = h["robust"]
         cells = [f"{r[k]['median']}/{r[k]['p99']}" for k in ("observer_ms", "timing_ms", "build_ms", "solve_ms", "other_ms", "cycle_ms")]
         lines.append(f"| {h['C']} | " + " | ".join(cells) + f" | {r['lip_realtime_factor']}x |")
-    if "mujoco" in result:
-        m = result["mujoco"]
-        lines += ["", f"MuJoCo closed loop ({m['robot']}, {m['duration_s']} s, no video): "
-                  f"real-time factor {m['realtime_factor']}x, controller cycle median {m['cycle_ms']['median']} ms"]
+    if "speed" in result:
+        from .speed import format_speed
+
+        lines += ["", format_speed(result["speed"], result.get("comparison"))]
     return "\n".join(lines)
 
 
@@ -288,6 +283,7 @@ def write_bench(result: dict, out: Path) -> list[Path]:
     md = io.StringIO()
     md.write("# robust-ismpc benchmark\n\n")
     md.write(format_table(result) + "\n\n")
+    md.write(f"Commit: {result.get('commit')}, {result.get('date')}\n\n")
     md.write("Machine: " + json.dumps(result["machine"]) + "\n\n")
     md.write("Versions: " + json.dumps(result["versions"]) + "\n")
     atomic_write_bytes(out / "bench.md", md.getvalue().encode())

@@ -225,11 +225,10 @@ class InverseDynamicsQp:
 
     def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m, d = self.model, self.data
-        jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-        mujoco.mj_jac(m, d, jp, jr, point, self._body[side])
-        jpd, jrd = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-        mujoco.mj_jacDot(m, d, jpd, jrd, point, self._body[side])
-        return np.vstack([jp, jr]), np.vstack([jpd, jrd])
+        jac, jac_dot = np.zeros((6, m.nv)), np.zeros((6, m.nv))
+        mujoco.mj_jac(m, d, jac[:3], jac[3:], point, self._body[side])
+        mujoco.mj_jacDot(m, d, jac_dot[:3], jac_dot[3:], point, self._body[side])
+        return jac, jac_dot
 
     def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
                 ik_qacc: np.ndarray) -> np.ndarray:
