@@ -18,16 +18,20 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path: str | Path) -> None:
-    """Write ``fig`` as a PNG at ``path``, atomically (a reader never sees half a file)."""
+def save_figure(fig, path: str | Path, crop: bool = True) -> None:
+    """Write ``fig`` as a PNG at ``path``, atomically (a reader never sees half a file).
+
+    ``crop`` trims the page to what is drawn (and keeps legends placed outside the axes); it
+    costs a second drawing pass, so a figure already laid out with ``tight_layout`` skips it.
+    """
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+    fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight" if crop else None)
     atomic_write_bytes(Path(path), buffer.getvalue())
 
 
 def finish_figure(plt, fig, path: str | Path) -> Path:
-    """Lay out, write and close ``fig``; returns the path."""
+    """Lay out (``tight_layout``), write and close ``fig``; returns the path."""
     fig.tight_layout()
-    save_figure(fig, Path(path))
+    save_figure(fig, Path(path), crop=False)
     plt.close(fig)
     return Path(path)
