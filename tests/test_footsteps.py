@@ -60,3 +60,25 @@ def test_retime_shifts_later_steps_and_keeps_durations(plan):
     np.testing.assert_array_equal(plan.T_ds_s, before_ds)
     with pytest.raises(ParameterError):
         plan.retime_touchdown(j, plan.ss_start_s[j] - 0.01)
+
+
+def test_one_time_queries_match_the_array_queries():
+    """step_at on one time and box_at give what the array queries give, on a turning, sideways
+    walk, at every sampled time of the plan."""
+    from robust_ismpc.core.params import robot_params
+    from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+
+    robot = robot_params("g1")
+    left = np.array([0.0, 0.5 * robot.foot_spacing_m])
+    plan = plan_footsteps(robot, WalkCommand(0.2, 0.05, 0.2), 8.0, left, -left)
+    for t in np.linspace(plan.ss_start_s[1], plan.end_s - 1e-6, 801):
+        at = np.array([t])
+        assert plan.step_at(float(t)) == int(plan.step_at(at)[0])
+        centre, half, yaw = plan.box_at(float(t))
+        np.testing.assert_allclose(centre, plan.centre(at)[0], atol=1e-12)
+        np.testing.assert_allclose(half, plan.box_half(at)[0], atol=1e-12)
+        assert yaw == pytest.approx(plan.centre_yaw(at)[0], abs=1e-12)
+    with pytest.raises(PlanError):
+        plan.step_at(float(plan.end_s))
+    with pytest.raises(PlanError):
+        plan.step_at(float("nan"))

@@ -112,6 +112,14 @@ class FootstepPlan:
 
         ``t_s`` may be a scalar or an increasing array.
         """
+        if isinstance(t_s, (float, int)):  # one time: no array round trip (the per-cycle case)
+            starts = self.ss_start_s
+            if not starts[1] - 1e-12 <= t_s < self.end_s:  # NaN fails too
+                raise PlanError(
+                    f"time {t_s} is outside the footstep plan [{starts[1]}, {self.end_s}); "
+                    "plan more steps (a longer walk) or shorten the preview horizon"
+                )
+            return int(np.searchsorted(starts, t_s + 1e-12, side="right")) - 1
         t = np.asarray(t_s, dtype=float)
         first = float(t.flat[0])
         last = float(t.flat[-1])
@@ -181,6 +189,18 @@ class FootstepPlan:
         lo, alpha = weights
         a = alpha.reshape(-1, *([1] * (values.ndim - 1)))
         return (1.0 - a) * values[lo] + a * values[lo + 1]
+
+    def box_at(self, t_s: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """The ZMP box at one time: centre (2,) [m], half sides (2,) [m] and yaw [rad], as
+        :meth:`centre`, :meth:`box_half` and :meth:`centre_yaw` give them."""
+        j = self.step_at(float(t_s))
+        touchdown = float(self.ss_start_s[j] + self.T_ss_s[j])
+        alpha = min(1.0, max(0.0, (t_s - touchdown) / float(self.T_ds_s[j])))
+        lo = j - 1
+        centre = (1.0 - alpha) * self.pos_m[lo] + alpha * self.pos_m[lo + 1]
+        half = (1.0 - alpha) * self.box_half_m[lo] + alpha * self.box_half_m[lo + 1]
+        yaw = (1.0 - alpha) * float(self.yaw_rad[lo]) + alpha * float(self.yaw_rad[lo + 1])
+        return centre, half, yaw
 
     def centre(self, times_s: np.ndarray, positions: np.ndarray | None = None) -> np.ndarray:
         """ZMP box centre at each time, shape (M, 2), from ``positions`` (default ``pos_m``)."""

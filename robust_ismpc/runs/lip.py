@@ -116,9 +116,7 @@ def run_lip(
             zmp_m=true_state[2].copy(),
             contact_acc_mps2=contact_acc,
         )
-        centre = plan.centre(np.array([t]))[0]
-        yaw = float(plan.centre_yaw(np.array([t]))[0])
-        half_box = plan.box_half(np.array([t]))[0]
+        centre, half_box, yaw = plan.box_at(t)
         violation = zmp_box_violation(true_state[2], centre, yaw, half_box)
         try:
             ref = controller.step(t, meas)

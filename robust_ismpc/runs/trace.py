@@ -116,12 +116,11 @@ def controller_channels(controller, reference, t_s: float) -> dict:
     from ..core.reference import Support
 
     plan, info = controller.plan, controller.info
-    at = np.array([t_s])
+    centre, half, yaw = plan.box_at(t_s)
     support_code = {Support.DOUBLE: 0, Support.LEFT: 1, Support.RIGHT: -1}[reference.support]
     return {
         "zmp_ref_m": reference.zmp_m, "dcm_m": info.dcm_m,
-        "box_centre_m": plan.centre(at)[0], "box_half_m": plan.box_half(at)[0],
-        "box_yaw_rad": float(plan.centre_yaw(at)[0]),
+        "box_centre_m": centre, "box_half_m": half, "box_yaw_rad": yaw,
         "left_foot_m": reference.left_foot.pos_m, "right_foot_m": reference.right_foot.pos_m,
         "support": support_code, "step_index": reference.step_index, "time_to_step_s": reference.time_to_step_s,
         "disturbance_est_mps2": info.disturbance_mps2, "infeasible": float(info.infeasible),
