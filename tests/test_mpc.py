@@ -127,3 +127,33 @@ def test_infeasible_qp_raises_with_problem(robot):
     with pytest.raises(InfeasibleMpc) as info:
         qp.solve(plan, bad)
     assert info.value.problem is not None and info.value.problem.A.shape[1] > 0
+
+
+@pytest.mark.parametrize("heading_rad", [0.4, -2.0, 1e-4])
+def test_a_straight_walk_in_any_heading_solves_per_axis_in_its_frame(robot, heading_rad):
+    """All boxes of the horizon share one yaw: the QP splits into two per-axis QPs in that frame,
+    and its solution is the heading-0 solution rotated (ZMP velocities and footsteps)."""
+    from robust_ismpc.core.planner import WalkCommand, plan_footsteps
+    from robust_ismpc.exceptions import InfeasibleMpc
+
+    c, s = np.cos(heading_rad), np.sin(heading_rad)
+    rot = np.array([[c, -s], [s, c]])
+    left = np.array([0.0, 0.5 * robot.foot_spacing_m])
+    turned = plan_footsteps(robot, WalkCommand(0.2), 12.0, rot @ left, -(rot @ left), heading_rad)
+    straight = plan_footsteps(robot, WalkCommand(0.2), 12.0, left, -left, 0.0)
+    qp = IsmpcQp(robot, MpcParams())
+    compared = 0
+    for t in np.arange(turned.ss_start_s[1], 8.0, 0.037):
+        centre = straight.centre(np.array([t]))[0]
+        state0 = MpcState(t, centre + np.array([0.01, 0.0]), centre)
+        state = MpcState(t, rot @ state0.dcm_m, rot @ state0.zmp_m)
+        assert not qp.build(turned, state)[1].coupled
+        try:
+            expected = qp.solve(straight, state0)
+        except InfeasibleMpc:
+            continue
+        got = qp.solve(turned, state)
+        np.testing.assert_allclose(got.zmp_vel_mps, expected.zmp_vel_mps @ rot.T, atol=1e-9)
+        np.testing.assert_allclose(got.footsteps_m, expected.footsteps_m @ rot.T, atol=1e-9)
+        compared += 1
+    assert compared > 50

@@ -26,11 +26,15 @@ class QpLayout:
         Free footsteps in the control horizon (footstep variables per axis).
     coupled : bool
         True if both axes share one QP.
+    frame_yaw_rad : float
+        Per-axis QPs only: their axes are those of the frame rotated by this yaw, the one yaw of
+        every ZMP box and kinematic box in the horizon [rad] (0 for world axes).
     """
 
     C: int
     F: int
     coupled: bool
+    frame_yaw_rad: float = 0.0
 
     @property
     def n_axis(self) -> int:
@@ -59,3 +63,15 @@ class QpLayout:
     def both_axes(self, x_part: np.ndarray, y_part: np.ndarray) -> np.ndarray:
         """A coupled QP's columns: the x axis's (..., C+F) then the y axis's (..., C+F)."""
         return np.concatenate([x_part, y_part], axis=-1)
+
+    def to_frame(self, xy_world: np.ndarray) -> np.ndarray:
+        """World (x, y) vectors, shape (..., 2), in the per-axis QPs' frame."""
+        c, s = np.cos(self.frame_yaw_rad), np.sin(self.frame_yaw_rad)
+        x, y = xy_world[..., 0], xy_world[..., 1]
+        return np.stack([c * x + s * y, -s * x + c * y], axis=-1)
+
+    def to_world(self, xy_frame: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`to_frame`."""
+        c, s = np.cos(self.frame_yaw_rad), np.sin(self.frame_yaw_rad)
+        x, y = xy_frame[..., 0], xy_frame[..., 1]
+        return np.stack([c * x - s * y, s * x + c * y], axis=-1)

@@ -208,7 +208,7 @@ class IsmpcQp:
         Returns
         -------
         problems : list of QpProblem
-            Two per-axis problems (x, y) or one coupled problem. Per-axis problems share a
+            Two per-axis problems (the axes of ``layout.frame_yaw_rad``) or one coupled problem. Per-axis problems share a
             constraint buffer that the next call overwrites: ``copy()`` a problem to keep it.
         layout : QpLayout
         footsteps : HorizonFootsteps
@@ -250,10 +250,17 @@ class IsmpcQp:
         beta = self.mpc.footstep_weight
         yaw_rows = plan.interpolate(plan.yaw_rad, weights_h)
         yaw_kin = plan.yaw_rad[free_idx - 1]
-        coupled = bool(np.abs(yaw_rows).max() > 1e-12 or (F > 0 and np.abs(yaw_kin).max() > 1e-12))
-        layout = QpLayout(C=C, F=F, coupled=coupled)
+        # one yaw for every box of the horizon (a straight walk in any heading): the axes of
+        # that frame decouple, and each is a QP of its own
+        frame_yaw = float(yaw_rows[0])
+        coupled = bool(np.abs(yaw_rows - frame_yaw).max() > 1e-12
+                       or (F > 0 and np.abs(yaw_kin - frame_yaw).max() > 1e-12))
+        layout = QpLayout(C=C, F=F, coupled=coupled, frame_yaw_rad=0.0 if coupled else frame_yaw)
 
         if not coupled:
+            if frame_yaw != 0.0:
+                offset, prev_known = layout.to_frame(offset), layout.to_frame(prev_known)
+                target, stab_rhs = layout.to_frame(target), layout.to_frame(stab_rhs)
             A = st.A_axis
             A[:C, layout.footsteps()] = -W_free
             A[-1, layout.footsteps()] = tail_free
@@ -347,6 +354,8 @@ class IsmpcQp:
                 solve_time += sol.solve_time_s
                 zmp_vel[:, axis] = sol.x[layout.zmp_vel()]
                 steps[:, axis] = sol.x[layout.footsteps()]
+            if layout.frame_yaw_rad != 0.0:
+                zmp_vel, steps = layout.to_world(zmp_vel), layout.to_world(steps)
         return MpcPlan(
             zmp_vel_mps=zmp_vel,
             footstep_indices=np.arange(hf.first_free, hf.first_free + layout.F),
