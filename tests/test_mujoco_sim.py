@@ -314,3 +314,34 @@ def test_bad_walk_settings_raise_parameter_error(kwargs, message):
 
     with pytest.raises(ParameterError, match=message):
         WalkSettings(**kwargs)
+
+
+def test_compiled_models_are_kept_on_disk_between_processes(tmp_path, monkeypatch):
+    """The second compilation of a scene reads the binary model that the first one wrote, and
+    gets the same model; an empty ROBUST_ISMPC_CACHE turns the disk cache off."""
+    from robust_ismpc.sim import model as model_module
+    from robust_ismpc.sim.model import CACHE_ENV, _compile_model, load_robot
+
+    spec = load_robot("op3")
+    path, mtime = str(spec.model_path), spec.model_path.stat().st_mtime
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "cache"))
+    _compile_model.cache_clear()
+    fresh = _compile_model(path, mtime, spec.sole_sites)
+    files = list((tmp_path / "cache").glob("*.mjb"))
+    assert len(files) == 1
+    _compile_model.cache_clear()
+    read = []
+    monkeypatch.setattr(model_module.mujoco.MjModel, "from_xml_path",
+                        lambda *a: read.append(a) or pytest.fail("compiled again instead of reading the cache"))
+    cached = _compile_model(path, mtime, spec.sole_sites)
+    assert (cached.nq, cached.nv, cached.nbody, cached.ngeom) == (fresh.nq, fresh.nv, fresh.nbody, fresh.ngeom)
+    assert [cached.body(i).name for i in range(cached.nbody)] == [fresh.body(i).name for i in range(fresh.nbody)]
+    np.testing.assert_array_equal(cached.geom_size, fresh.geom_size)
+    np.testing.assert_array_equal(cached.body_mass, fresh.body_mass)
+    monkeypatch.undo()
+    monkeypatch.setenv(CACHE_ENV, "")
+    _compile_model.cache_clear()
+    assert model_module.model_cache_dir() is None
+    _compile_model(path, mtime, spec.sole_sites)
+    assert len(list((tmp_path / "cache").glob("*.mjb"))) == 1
+    _compile_model.cache_clear()

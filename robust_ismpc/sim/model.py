@@ -9,8 +9,10 @@ needs (mass, CoM height, foot spacing, base height), returning a frozen
 from __future__ import annotations
 
 import functools
+import hashlib
 import logging
 import math
+import os
 from pathlib import Path
 
 import mujoco
@@ -57,15 +59,58 @@ def standing_qpos(spec: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
     return qpos
 
 
+#: Environment variable naming the folder of compiled models; empty disables the disk cache.
+CACHE_ENV = "ROBUST_ISMPC_CACHE"
+
+
+def model_cache_dir() -> Path | None:
+    """Folder where compiled models are kept between processes (``$ROBUST_ISMPC_CACHE``, else
+    ``$XDG_CACHE_HOME/robust-ismpc/models`` or ``~/.cache/robust-ismpc/models``); None when
+    ``ROBUST_ISMPC_CACHE`` is set empty."""
+    configured = os.environ.get(CACHE_ENV)
+    if configured is not None:
+        return Path(configured) if configured else None
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "robust-ismpc" / "models"
+
+
+def _source_key(path: str, sites: tuple) -> str:
+    """Digest of what a compiled model depends on: mujoco's version, the scene path, the added
+    sites and the size and time of every file in the scene's folder (includes and meshes)."""
+    digest = hashlib.sha256(f"{mujoco.__version__}|{path}|{sites!r}".encode())
+    for file in sorted(Path(path).parent.rglob("*")):
+        if file.is_file():
+            stat = file.stat()
+            digest.update(f"{file}|{stat.st_size}|{stat.st_mtime_ns}".encode())
+    return digest.hexdigest()[:32]
+
+
 @functools.lru_cache(maxsize=8)
-def _compile_model(path: str, mtime: float, sites: tuple = ()) -> mujoco.MjModel:
-    del mtime  # part of the cache key only
+def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
+    """The scene at ``path`` with ``sites`` added, compiled; kept in memory, and on disk in
+    :func:`model_cache_dir` (MJCF compilation takes about a second for a humanoid, reading the
+    binary model a few milliseconds)."""
+    del mtime  # part of the in-memory cache key only
+    folder = model_cache_dir()
+    cached = None if folder is None else folder / f"{_source_key(path, sites)}.mjb"
+    if cached is not None and cached.is_file():
+        try:
+            return mujoco.MjModel.from_binary_path(str(cached))
+        except ValueError:
+            logger.warning("ignoring an unreadable compiled model %s", cached)
     try:
-        if not sites:
-            return mujoco.MjModel.from_xml_path(path)
-        return _scene_spec(path, sites).compile()
+        model = mujoco.MjModel.from_xml_path(path) if not sites else _scene_spec(path, sites).compile()
     except ValueError as exc:
         raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
+    if cached is not None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            partial = cached.with_name(f".{cached.name}.{os.getpid()}")
+            mujoco.mj_saveModel(model, str(partial), None)
+            os.replace(partial, cached)
+        except OSError as exc:  # a read-only home: compile every time
+            logger.info("not caching the compiled model in %s: %s", folder, exc)
+    return model
 
 
 def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
@@ -212,7 +257,7 @@ def load_robot_file(path: str | Path) -> RobotSpec:
     """
     robot_file = read_robot_file(path)
     toml_path, table, model_path = robot_file.path, robot_file.table, robot_file.model_path()
-    model = _compile_model(str(model_path), model_path.stat().st_mtime)
+    model = _compile_model(str(model_path), model_path.stat().st_mtime, ())
     _check_names(robot_file, model, model_path)
     if robot_file.sole_sites:
         model = _compile_model(str(model_path), model_path.stat().st_mtime, robot_file.sole_sites)

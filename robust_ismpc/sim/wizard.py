@@ -354,7 +354,7 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
     path = Path(model_path).expanduser().resolve()
     if not path.is_file():
         raise ModelError(f"model file {str(model_path)!r} not found")
-    model = _compile_model(str(path), path.stat().st_mtime)
+    model = _compile_model(str(path), path.stat().st_mtime, ())
     if not has_floor(model):
         raise ModelError("the model has no floor (a plane geom of the world body); "
                          "load the robot from a scene file that adds one")
