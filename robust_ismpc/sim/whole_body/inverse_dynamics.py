@@ -207,6 +207,12 @@ class InverseDynamicsQp:
         # the Hessian's constant part: the regularisation and the posture task (a selection of q̈)
         self._H_const = settings.regularisation * np.eye(nv + 12)
         self._H_const[self._dof, self._dof] += settings.posture_weight
+        # rows of a sole in contact: normal force >= its minimum; then each of f_x, f_y, m_x, m_y,
+        # m_z within ± its limit times the normal force
+        self._wrench_limits = np.array([settings.friction, settings.friction, self._half_width, self._half_length,
+                                        settings.torsion_m])[:, None]
+        self._contact_lower = np.concatenate([[settings.min_normal_force_n], np.full(10, -np.inf)])
+        self._contact_upper = np.concatenate([[np.inf], np.zeros(10)])
         self._jac_com_prev: np.ndarray | None = None
         self._ang_prev: np.ndarray | None = None
         # reference sole velocities of the previous control tick, for the swing acceleration
@@ -273,8 +279,8 @@ class InverseDynamicsQp:
         soles = {side: self.robot.sole_frame(side) for side in SIDES}
         jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
         stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
-        real_anchor = np.mean([soles[side][0] for side in stance], axis=0)
-        ref_anchor = np.mean([feet[side].pos_m for side in stance], axis=0)
+        real_anchor = sum(soles[side][0] for side in stance) / len(stance)
+        ref_anchor = sum(feet[side].pos_m for side in stance) / len(stance)
 
         # Variables x = (q̈ (nv), left sole wrench (6), right sole wrench (6)). Every task row acts
         # on q̈ only: its Hessian and gradient terms go into the q̈ block.
@@ -364,14 +370,13 @@ class InverseDynamicsQp:
             wrench_rows[2:, 3:] = RT
             normal = np.zeros(6)
             normal[:3] = RT[2]
-            limit = np.array([s.friction, s.friction, self._half_width, self._half_length, s.torsion_m])[:, None]
             block = np.zeros((11, n))
             block[0, start:start + 6] = normal
-            block[1::2, start:start + 6] = wrench_rows - limit * normal
-            block[2::2, start:start + 6] = -wrench_rows - limit * normal
+            block[1::2, start:start + 6] = wrench_rows - self._wrench_limits * normal
+            block[2::2, start:start + 6] = -wrench_rows - self._wrench_limits * normal
             blocks.append(block)
-            lower_rows.append(np.concatenate([[s.min_normal_force_n], np.full(10, -np.inf)]))
-            upper_rows.append(np.concatenate([[np.inf], np.zeros(10)]))
+            lower_rows.append(self._contact_lower)
+            upper_rows.append(self._contact_upper)
         torque_rows = np.zeros((len(self._dof), n))
         torque_rows[:, :nv] = M[self._dof]
         torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
