@@ -270,6 +270,9 @@ class MujocoRobot:
             self._geom_side[self._foot_geoms[side]] = i
         self._is_ground = np.zeros(model.ngeom, dtype=bool)
         self._is_ground[self._ground_geoms] = True
+        self._geom_side_list = self._geom_side.tolist()
+        self._ground_set = set(self._ground_geoms.tolist())
+        self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
 
     def foot_geom_ids(self) -> np.ndarray:
@@ -368,36 +371,46 @@ class MujocoRobot:
         per foot and over both feet (the f_z-weighted average of the feet's CoPs).
         """
         m, d = self.model, self.data
-        fz = np.zeros(2)
-        force_sum = np.zeros(3)
-        moment_origin = np.zeros(3)
-        moment = np.zeros((2, 2))  # per side: sum(p_xy f_z - p_z f_xy)
+        # plain Python floats: a walking robot has about ten foot contacts, where numpy's
+        # per-call overhead would dominate
+        fz = [0.0, 0.0]
+        moment = [[0.0, 0.0], [0.0, 0.0]]  # per side: sum(p_xy f_z - p_z f_xy)
+        fx_sum = fy_sum = fz_sum = mx_sum = my_sum = mz_sum = 0.0
         n = d.ncon
         if n:
             con = d.contact
-            g1, g2 = con.geom1, con.geom2
-            side1, side2 = self._geom_side[g1], self._geom_side[g2]
-            ground_first = self._is_ground[g1] & (side2 >= 0)
-            ground_second = self._is_ground[g2] & (side1 >= 0) & ~ground_first
-            idx = np.flatnonzero(ground_first | ground_second)
-            if idx.size:
-                first = ground_first[idx]
-                sides = np.where(first, side2[idx], side1[idx])
-                local = np.empty((idx.size, 6))
-                for k, i in enumerate(idx.tolist()):
-                    mujoco.mj_contactForce(m, d, i, local[k])
-                # the force on the foot in the world frame: ±frameᵀ f_local
-                forces = np.einsum("kji,kj->ki", con.frame[idx].reshape(-1, 3, 3), local[:, :3])
-                forces[~first] *= -1.0
-                pressing = forces[:, 2] > 0.0
-                forces, pos, sides = forces[pressing], con.pos[idx][pressing], sides[pressing]
-                force_sum = forces.sum(axis=0)
-                moment_origin = _cross(pos, forces).sum(axis=0)
-                per_contact = pos[:, :2] * forces[:, 2:3] - pos[:, 2:3] * forces[:, :2]
-                for s in range(2):
-                    on_side = sides == s
-                    fz[s] = forces[on_side, 2].sum()
-                    moment[s] = per_contact[on_side].sum(axis=0)
+            side_of, ground = self._geom_side_list, self._ground_set
+            frames, points = con.frame.tolist(), con.pos.tolist()
+            wrench = self._wrench
+            for i, (g1, g2) in enumerate(zip(con.geom1.tolist(), con.geom2.tolist())):
+                if g1 in ground and side_of[g2] >= 0:
+                    side, sign = side_of[g2], 1.0
+                elif g2 in ground and side_of[g1] >= 0:
+                    side, sign = side_of[g1], -1.0
+                else:
+                    continue
+                mujoco.mj_contactForce(m, d, i, wrench)
+                f0, f1, f2 = sign * wrench[0], sign * wrench[1], sign * wrench[2]
+                r = frames[i]  # rows: contact normal and tangents in the world
+                fx = f0 * r[0] + f1 * r[3] + f2 * r[6]
+                fy = f0 * r[1] + f1 * r[4] + f2 * r[7]
+                fzi = f0 * r[2] + f1 * r[5] + f2 * r[8]
+                if fzi <= 0.0:
+                    continue
+                px, py, pz = points[i]
+                fz[side] += fzi
+                fx_sum += fx
+                fy_sum += fy
+                fz_sum += fzi
+                mx_sum += py * fzi - pz * fy
+                my_sum += pz * fx - px * fzi
+                mz_sum += px * fy - py * fx
+                moment[side][0] += px * fzi - pz * fx
+                moment[side][1] += py * fzi - pz * fy
+        fz = np.array(fz)
+        moment = np.array(moment)
+        force_sum = np.array([fx_sum, fy_sum, fz_sum])
+        moment_origin = np.array([mx_sum, my_sum, mz_sum])
         in_contact = fz > self.contact_threshold_n
         cops: list[np.ndarray | None] = [moment[s] / fz[s] if in_contact[s] else None for s in range(2)]
         total = fz[in_contact].sum()
