@@ -134,20 +134,20 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     ndarray, shape (k, 2)
         Hull vertices counter-clockwise, without repetition (k <= n).
     """
-    pts = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
+    pts = sorted(set(map(tuple, np.asarray(points, dtype=float).reshape(-1, 2).tolist())))
     if len(pts) <= 2:
-        return pts
+        return np.array(pts, dtype=float).reshape(-1, 2)
 
-    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    def cross(o: tuple, a: tuple, b: tuple) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
-    lower: list[np.ndarray] = []
+    lower: list[tuple] = []
     for p in pts:
         while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 1e-15:
             lower.pop()
         lower.append(p)
-    upper: list[np.ndarray] = []
-    for p in pts[::-1]:
+    upper: list[tuple] = []
+    for p in reversed(pts):
         while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 1e-15:
             upper.pop()
         upper.append(p)
