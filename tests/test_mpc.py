@@ -157,3 +157,43 @@ def test_a_straight_walk_in_any_heading_solves_per_axis_in_its_frame(robot, head
         np.testing.assert_allclose(got.footsteps_m, expected.footsteps_m @ rot.T, atol=1e-9)
         compared += 1
     assert compared > 50
+
+
+class _CountingSolver(DaqpSolver):
+    """DAQP that counts its solves (an operation count: the speed regression check of CI)."""
+
+    def __init__(self):
+        super().__init__()
+        self.solves = 0
+
+    def solve(self, problem):
+        self.solves += 1
+        return super().solve(problem)
+
+
+@pytest.mark.parametrize("omega", [0.0, 0.3])
+def test_qp_solves_per_cycle(robot, omega):
+    """Each cycle of an undisturbed walk solves two per-axis QPs, or one coupled QP while the
+    boxes of its horizon turn; none solves more (no retries, no fallbacks). A straight walk never
+    couples its axes."""
+    from robust_ismpc.control.walk import make_controller, start_walk
+    from robust_ismpc.core.planner import WalkCommand
+    from robust_ismpc.runs.lip import run_lip
+
+    solver = _CountingSolver()
+    controller = make_controller(robot, MpcParams(), solver=solver)
+    start_walk(controller, WalkCommand(0.2, 0.0, omega), 6.0)
+    coupled = []
+    solve = controller.qp.solve
+
+    def recording_solve(*args, **kwargs):
+        plan = solve(*args, **kwargs)
+        coupled.append(plan.coupled)
+        return plan
+
+    controller.qp.solve = recording_solve
+    outcome, _ = run_lip(controller, 6.0)
+    assert not outcome.fell
+    assert len(coupled) == int(round(6.0 / controller.dt))
+    assert solver.solves == sum(1 if c else 2 for c in coupled)
+    assert any(coupled) == (omega != 0.0)
