@@ -107,20 +107,22 @@ def cmd_bench(args) -> int:
     out = None
     if args.out is not None:
         out = _open_out(args, require_empty=False)
-    result = run_bench(args.robot, horizons, args.cycles, solvers, mujoco=args.mujoco, repeats=args.repeats,
-                       progress=None if args.quiet else _say)
-    if baseline is not None:
-        from ..experiments.speed import compare_speed
+    from ..experiments.speed import commit, compare_speed, format_speed, measure_speed
 
+    result = run_bench(args.robot, horizons, args.cycles, solvers)
+    result["commit"] = commit()
+    result["speed"] = measure_speed(args.repeats, mujoco=args.mujoco, progress=None if args.quiet else _say)
+    if baseline is not None:
         result["comparison"] = compare_speed(result, baseline)
         result["baseline"] = {"path": str(Path(args.baseline).resolve()), "commit": baseline.get("commit"),
                               "date": baseline.get("date")}
-    print(format_table(result))
+    text = format_table(result) + "\n\n" + format_speed(result["speed"], result.get("comparison"))
+    print(text)
     regressions = [c["row"] for c in result.get("comparison", []) if c["regression"]]
     if regressions:
         _warn(f"slower than the baseline by 10 % or more: {', '.join(regressions)}")
     if out is not None:
-        paths = write_bench(result, out)
+        paths = write_bench(result, out, text)
         print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 

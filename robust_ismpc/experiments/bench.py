@@ -213,22 +213,16 @@ def check_bench_args(horizons_text: str, cycles: int, solvers_text: str | None) 
     return horizons, solvers
 
 
-def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str], mujoco: bool = False,
-              repeats: int = 1, progress=None) -> dict:
-    """Benchmark every horizon, then the speed table (:mod:`robust_ismpc.experiments.speed`);
-    returns a JSON-serialisable dict with the machine, the versions and the commit."""
-    from .speed import commit, measure_speed
-
-    result = {
+def run_bench(robot_name: str, horizons: list[int], cycles: int, solvers: list[str]) -> dict:
+    """Benchmark every horizon; returns a JSON-serialisable dict with the machine and versions
+    (``ismpc bench`` adds the speed table of :mod:`robust_ismpc.experiments.speed`)."""
+    return {
         "robot": robot_name,
-        "commit": commit(),
         "date": time.strftime("%Y-%m-%d %H:%M:%S"),
         "machine": machine(),
         "versions": versions(),
         "horizons": [bench_horizon(robot_name, C, cycles, solvers) for C in horizons],
     }
-    result["speed"] = measure_speed(repeats, mujoco=mujoco, progress=progress)
-    return result
 
 
 def format_table(result: dict) -> str:
@@ -268,21 +262,18 @@ def format_table(result: dict) -> str:
         r = h["robust"]
         cells = [f"{r[k]['median']}/{r[k]['p99']}" for k in ("observer_ms", "timing_ms", "build_ms", "solve_ms", "other_ms", "cycle_ms")]
         lines.append(f"| {h['C']} | " + " | ".join(cells) + f" | {r['lip_realtime_factor']}x |")
-    if "speed" in result:
-        from .speed import format_speed
-
-        lines += ["", format_speed(result["speed"], result.get("comparison"))]
     return "\n".join(lines)
 
 
-def write_bench(result: dict, out: Path) -> list[Path]:
-    """Write ``bench.json`` and ``bench.md`` (with machine and versions) into ``out``."""
+def write_bench(result: dict, out: Path, text: str) -> list[Path]:
+    """Write ``bench.json`` and ``bench.md`` (``text``, the tables as printed, with the commit,
+    machine and versions) into ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out / "bench.json", result)
     md = io.StringIO()
     md.write("# robust-ismpc benchmark\n\n")
-    md.write(format_table(result) + "\n\n")
+    md.write(text + "\n\n")
     md.write(f"Commit: {result.get('commit')}, {result.get('date')}\n\n")
     md.write("Machine: " + json.dumps(result["machine"]) + "\n\n")
     md.write("Versions: " + json.dumps(result["versions"]) + "\n")
