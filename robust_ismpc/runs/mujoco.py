@@ -1,7 +1,7 @@
 """A :class:`~robust_ismpc.runs.spec.RunSpec` on a full robot in MuJoCo (``ismpc run --sim mujoco``).
 
 :func:`run_mujoco_spec` builds the robot scene, the footstep plan from the robot's real initial
-soles, the controller (nominal or robust, through :func:`robust_ismpc.runs.spec.make_controller`) and
+soles, the controller (nominal or robust, through :func:`robust_ismpc.control.walk.make_controller`) and
 runs the closed loop
 
     measure (CoM, soles, contact CoP) -> controller.step -> whole-body IK -> servos -> physics

@@ -84,7 +84,7 @@ def fit_swing_cop_gain(
     Parameters
     ----------
     robot : str, path or RobotSpec
-        Built-in name or TOML path (:func:`~robust_ismpc.robots.spec.load_robot`), or a spec.
+        Built-in name or TOML path (:func:`~robust_ismpc.sim.model.load_robot`), or a spec.
     command : WalkCommand, optional
         Walking command (default: forward at 0.2 m/s; use a speed the robot walks at, e.g. 0.15
         m/s for OP3).

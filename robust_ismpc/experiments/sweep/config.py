@@ -252,7 +252,7 @@ class SweepConfig:
     def pushed_step_window(self) -> tuple[float, float]:
         """Start and duration of the pushed step's single support [s].
 
-        From the footstep plan that :func:`robust_ismpc.runs.spec.run` builds for the walk command:
+        From the footstep plan that :func:`robust_ismpc.runs.run.run` builds for the walk command:
         regular step k (1-based) is step index ``k + 1`` of the plan.
         """
         from ...control.walk import lip_start_soles
