@@ -99,8 +99,9 @@ def cmd_bench(args) -> int:
         from ..extras import require_extra
 
         require_extra("sim", "ismpc bench --mujoco")
-    if not 1 <= args.repeats <= 50:
-        raise ParameterError(f"--repeats must be from 1 to 50, got {args.repeats}")
+    from ..experiments.speed import check_repeats
+
+    check_repeats(args.repeats)
     baseline = None
     if args.baseline is not None:
         baseline = _read_baseline(args.baseline)

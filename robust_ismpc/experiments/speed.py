@@ -37,6 +37,16 @@ ROWS = (
 ROW_NAMES = tuple(name for name, _, _ in ROWS)
 
 
+#: Largest number of runs per row.
+MAX_REPEATS = 50
+
+
+def check_repeats(repeats: int) -> None:
+    """Raise ParameterError (naming ``--repeats``) unless 1 <= ``repeats`` <= :data:`MAX_REPEATS`."""
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or not 1 <= repeats <= MAX_REPEATS:
+        raise ParameterError(f"--repeats must be from 1 to {MAX_REPEATS}, got {repeats!r}")
+
+
 def commit() -> str | None:
     """The git commit of the package's checkout (with ``-dirty`` for local changes), or None
     when the package is not in a git checkout."""
@@ -95,8 +105,7 @@ def measure_speed(repeats: int = 1, mujoco: bool = False, progress: Callable[[st
     from ..core.params import MpcParams
     from .bench import bench_robust
 
-    if not isinstance(repeats, int) or not 1 <= repeats <= 50:
-        raise ParameterError(f"--repeats must be an integer from 1 to 50, got {repeats!r}")
+    check_repeats(repeats)
     samples: dict[str, list[float]] = {name: [] for name in ROW_NAMES}
     phases = []
     say = progress or (lambda _: None)

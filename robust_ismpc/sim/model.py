@@ -74,12 +74,21 @@ def model_cache_dir() -> Path | None:
     return Path(base) / "robust-ismpc" / "models"
 
 
-def _source_key(path: str, sites: tuple) -> str:
+#: A scene folder with more files than this is not cached (its key would take long to compute).
+MAX_CACHED_FOLDER_FILES = 5000
+
+
+def _source_key(path: str, sites: tuple) -> str | None:
     """Digest of what a compiled model depends on: mujoco's version, the scene path, the added
-    sites and the size and time of every file in the scene's folder (includes and meshes)."""
+    sites and the size and time of every file in the scene's folder (includes and meshes);
+    None for a folder of more than :data:`MAX_CACHED_FOLDER_FILES` files."""
     digest = hashlib.sha256(f"{mujoco.__version__}|{path}|{sites!r}".encode())
+    files = 0
     for file in sorted(Path(path).parent.rglob("*")):
         if file.is_file():
+            files += 1
+            if files > MAX_CACHED_FOLDER_FILES:
+                return None
             stat = file.stat()
             digest.update(f"{file}|{stat.st_size}|{stat.st_mtime_ns}".encode())
     return digest.hexdigest()[:32]
@@ -92,7 +101,8 @@ def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
     binary model a few milliseconds)."""
     del mtime  # part of the in-memory cache key only
     folder = model_cache_dir()
-    cached = None if folder is None else folder / f"{_source_key(path, sites)}.mjb"
+    key = None if folder is None else _source_key(path, sites)
+    cached = None if folder is None or key is None else folder / f"{key}.mjb"
     if cached is not None and cached.is_file():
         try:
             return mujoco.MjModel.from_binary_path(str(cached))
@@ -104,7 +114,7 @@ def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
         raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
     if cached is not None:
         try:
-            folder.mkdir(parents=True, exist_ok=True)
+            cached.parent.mkdir(parents=True, exist_ok=True)
             partial = cached.with_name(f".{cached.name}.{os.getpid()}")
             mujoco.mj_saveModel(model, str(partial), None)
             os.replace(partial, cached)
