@@ -134,7 +134,7 @@ class FootstepPlan:
     def is_frozen(self, j: int, t_s: float, freeze_s: float) -> bool:
         """True once footstep j is no longer a decision of the MPC: its touchdown is at most
         ``freeze_s`` after ``t_s`` (:attr:`~robust_ismpc.core.params.MpcParams.footstep_freeze_s`)."""
-        return bool(t_s >= self.touchdown_s[j] - freeze_s - 1e-9)
+        return bool(t_s >= self.ss_start_s[j] + self.T_ss_s[j] - freeze_s - 1e-9)
 
     def in_single_support(self, t_s: float) -> bool:
         """True if the robot is in single support at ``t_s``."""

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .planner import rotation
+
 
 @dataclass(frozen=True)
 class QpLayout:
@@ -66,12 +68,8 @@ class QpLayout:
 
     def to_frame(self, xy_world: np.ndarray) -> np.ndarray:
         """World (x, y) vectors, shape (..., 2), in the per-axis QPs' frame."""
-        c, s = np.cos(self.frame_yaw_rad), np.sin(self.frame_yaw_rad)
-        x, y = xy_world[..., 0], xy_world[..., 1]
-        return np.stack([c * x + s * y, -s * x + c * y], axis=-1)
+        return np.asarray(xy_world) @ rotation(self.frame_yaw_rad)
 
     def to_world(self, xy_frame: np.ndarray) -> np.ndarray:
         """The inverse of :meth:`to_frame`."""
-        c, s = np.cos(self.frame_yaw_rad), np.sin(self.frame_yaw_rad)
-        x, y = xy_frame[..., 0], xy_frame[..., 1]
-        return np.stack([c * x - s * y, s * x + c * y], axis=-1)
+        return np.asarray(xy_frame) @ rotation(self.frame_yaw_rad).T

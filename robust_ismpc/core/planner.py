@@ -13,6 +13,7 @@ generic QP solver.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -101,9 +102,19 @@ def kinematic_bounds(robot: RobotParams, sides: np.ndarray) -> tuple[np.ndarray,
     lower, upper : ndarray, shape (n, 2)
     """
     left = (np.asarray(sides).reshape(-1) > 0)[:, None]
-    left_lo, left_hi = kinematic_box(robot, 1)
-    right_lo, right_hi = kinematic_box(robot, -1)
+    (left_lo, left_hi), (right_lo, right_hi) = _side_boxes(robot)
     return np.where(left, left_lo, right_lo), np.where(left, left_hi, right_hi)
+
+
+@functools.lru_cache(maxsize=16)
+def _side_boxes(robot: RobotParams) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """:func:`kinematic_box` of a left and of a right footstep, once per robot (read-only: the
+    MPC asks for them every cycle)."""
+    boxes = (kinematic_box(robot, 1), kinematic_box(robot, -1))
+    for box in boxes:
+        for bound in box:
+            bound.setflags(write=False)
+    return boxes
 
 
 def command_limits(robot: RobotParams) -> dict[str, tuple[float, str]]:

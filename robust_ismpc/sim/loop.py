@@ -122,7 +122,7 @@ def _make_torque_motors(model: mujoco.MjModel) -> None:
     """Turn every actuator of ``model`` into a torque motor (``ctrl`` = joint torque), in place.
 
     Each motor keeps the torque limits of the actuator it replaces
-    (:func:`~robust_ismpc.sim.whole_body.inverse_dynamics.actuator_torque_limits_nm`: force range, a motor's
+    (:func:`~robust_ismpc.sim.whole_body.actuators.actuator_torque_limits_nm`: force range, a motor's
     control range and gear, the joint's actuator force range), as a force range with gear 1.
     """
     limits = actuator_torque_limits_nm(model)

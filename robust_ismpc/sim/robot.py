@@ -265,12 +265,11 @@ class MujocoRobot:
         self.contact_threshold_n = (
             0.01 * self.mass_kg * GRAVITY_MPS2 if contact_threshold_n is None else float(contact_threshold_n)
         )
-        self._geom_side = np.full(model.ngeom, -1, dtype=int)
+        # per geom: index of the foot side it belongs to (-1: none), and the floor's geoms
+        self._geom_side_list = [-1] * model.ngeom
         for i, side in enumerate(SIDES):
-            self._geom_side[self._foot_geoms[side]] = i
-        self._is_ground = np.zeros(model.ngeom, dtype=bool)
-        self._is_ground[self._ground_geoms] = True
-        self._geom_side_list = self._geom_side.tolist()
+            for g in self._foot_geoms[side].tolist():
+                self._geom_side_list[g] = i
         self._ground_set = set(self._ground_geoms.tolist())
         self._wrench = np.zeros(6)
         self._outline = spec.sole_outline()
