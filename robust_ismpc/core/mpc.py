@@ -135,7 +135,12 @@ class IsmpcQp:
         self.stab = stability_coefficients(self.eta, dt, C, P, mpc.tail)
         self.horizon_offsets_s = dt * np.arange(1, C + 1)
         self.tail_offsets_s = dt * np.arange(C, P + 1)
+        self._preview_offsets_s = dt * np.arange(1, P + 1)  # the horizon's, then the tail's after the shared t_{k+C}
         self._structures: dict[int, _Structure] = {}
+        self._builds = 0
+        # (t_s, layout, first free footstep) of the last solved QP: maps this cycle's rows onto
+        # the previous cycle's for the solver's warm start
+        self._previous: tuple[float, QpLayout, int] | None = None
 
     def _structure(self, F: int) -> _Structure:
         cached = self._structures.get(F)
@@ -217,11 +222,11 @@ class IsmpcQp:
         hf = self.horizon_footsteps(plan, state.t_s)
         F = hf.F
         count = hf.last - hf.first + 1
-        t_h = state.t_s + self.horizon_offsets_s
-        t_t = state.t_s + self.tail_offsets_s
-        weights_h = plan.centre_weights(t_h)
-        W_h = plan.weight_matrix(t_h, hf.first, count, weights_h)  # (C, count)
-        W_t = plan.weight_matrix(t_t, hf.first, count)  # (P-C+1, count)
+        t_preview = state.t_s + self._preview_offsets_s  # (P,): t_{k+1} .. t_{k+P}
+        weights = plan.centre_weights(t_preview)
+        W = plan.weight_matrix(t_preview, hf.first, count, weights)
+        W_h, W_t = W[:C], W[C - 1:]  # (C, count) at t_{k+1..k+C}, (P-C+1, count) at t_{k+C..k+P}
+        weights_h = (weights[0][:C], weights[1][:C])
         free = slice(hf.first_free - hf.first, hf.first_free - hf.first + F)
         # Positions of the non-free footsteps: landed ones from pos_m, later ones candidates.
         fixed_pos = plan.candidate_pos_m[hf.first : hf.last + 1].copy()
@@ -256,6 +261,8 @@ class IsmpcQp:
         coupled = bool(np.abs(yaw_rows - frame_yaw).max() > 1e-12
                        or (F > 0 and np.abs(yaw_kin - frame_yaw).max() > 1e-12))
         layout = QpLayout(C=C, F=F, coupled=coupled, frame_yaw_rad=0.0 if coupled else frame_yaw)
+        rows = self._previous_rows(state.t_s, layout, hf.first_free)
+        self._builds += 1
 
         if not coupled:
             if frame_yaw != 0.0:
@@ -277,7 +284,8 @@ class IsmpcQp:
                     [stab_rhs[axis]],
                 ])
                 g = layout.axis_columns(np.zeros(C), -beta * target[:, axis])
-                problems.append(QpProblem(st.H_axis, g, A, lower, upper, st.equality_axis, tag="xy"[axis]))
+                problems.append(QpProblem(st.H_axis, g, A, lower, upper, st.equality_axis, tag="xy"[axis],
+                                          previous_rows=rows, matrix_version=self._builds))
             return problems, layout, hf
 
         # Coupled: rotate the ZMP rows into the box frame and the kinematic rows into the
@@ -316,7 +324,23 @@ class IsmpcQp:
         ])
         g = layout.both_axes(layout.axis_columns(np.zeros(C), -beta * target[:, 0]),
                              layout.axis_columns(np.zeros(C), -beta * target[:, 1]))
-        return [QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy")], layout, hf
+        problem = QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy", previous_rows=rows)
+        return [problem], layout, hf
+
+    def _previous_rows(self, t_s: float, layout: QpLayout, first_free: int) -> np.ndarray:
+        """Row map onto the previous build's QP (a warm-start hint; see :meth:`QpLayout.rows_from`).
+
+        All -1 (start cold) when there is none: the first cycle, a time step that is not a whole
+        number of samples, or a switch between per-axis and coupled QPs.
+        """
+        previous = self._previous
+        rows = None
+        if previous is not None:
+            samples = (t_s - previous[0]) / self.dt
+            whole = round(samples)
+            if abs(samples - whole) < 1e-6:
+                rows = layout.rows_from(previous[1], whole, first_free - previous[2])
+        return rows if rows is not None else np.full(layout.m, -1, dtype=np.intp)
 
     def solve(
         self,
@@ -356,6 +380,7 @@ class IsmpcQp:
                 steps[:, axis] = sol.x[layout.footsteps()]
             if layout.frame_yaw_rad != 0.0:
                 zmp_vel, steps = layout.to_world(zmp_vel), layout.to_world(steps)
+        self._previous = (state.t_s, layout, hf.first_free)
         return MpcPlan(
             zmp_vel_mps=zmp_vel,
             footstep_indices=np.arange(hf.first_free, hf.first_free + layout.F),

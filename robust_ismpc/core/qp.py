@@ -6,8 +6,9 @@ Problems have the form
     \min_x \tfrac12 x^T H x + g^T x \quad\text{s.t.}\quad l \le A x \le u
 
 where rows with ``equality[i]`` set have :math:`l_i = u_i`. :class:`DaqpSolver` calls DAQP
-directly and keeps one warm-started workspace per problem shape; :class:`QpsolversSolver`
-goes through ``qpsolvers`` to any installed backend (OSQP, proxsuite, quadprog, ...).
+directly, keeps one workspace per problem shape and starts each solve from the active set of the
+previous problem of the same family; :class:`QpsolversSolver` goes through ``qpsolvers`` to any
+installed backend (OSQP, proxsuite, quadprog, ...).
 """
 
 from __future__ import annotations
@@ -37,8 +38,17 @@ class QpProblem:
     equality : ndarray of bool, shape (m,)
         Which rows are equalities.
     tag : str
-        Identifies a family of problems solved in sequence (e.g. the x-axis QP), so that a
-        warm-starting solver keeps one workspace per family.
+        Identifies a family of problems solved in sequence (e.g. the x-axis QP); a warm-starting
+        solver starts from the active set of the family's previous problem.
+    previous_rows : ndarray of int, shape (m,), optional
+        Row ``i`` of this problem is row ``previous_rows[i]`` of the family's previous problem
+        (-1: a new row), e.g. shifted by one sample as an MPC horizon slides. Only a warm-start
+        hint: it changes the solver's work, never the solution. If omitted, rows are taken to
+        correspond one to one when the shapes agree.
+    matrix_version : int
+        Problems with the same ``H`` and ``A`` objects and the same non-negative version have
+        identical ``H`` and ``A`` (e.g. the two axes of one MPC cycle), so a solver may skip
+        reading them again. -1: always read them.
     """
 
     H: np.ndarray
@@ -48,19 +58,18 @@ class QpProblem:
     upper: np.ndarray
     equality: np.ndarray
     tag: str = ""
+    previous_rows: np.ndarray | None = None
+    matrix_version: int = -1
 
     def copy(self) -> QpProblem:
         """Deep copy (problems built by IsmpcQp share buffers that the next cycle overwrites)."""
+        rows = None if self.previous_rows is None else self.previous_rows.copy()
         return QpProblem(self.H.copy(), self.g.copy(), self.A.copy(), self.lower.copy(), self.upper.copy(),
-                         self.equality.copy(), self.tag)
+                         self.equality.copy(), self.tag, rows)
 
     @property
     def n(self) -> int:
         return self.H.shape[0]
-
-    @property
-    def workspace_key(self) -> tuple[str, int, int]:
-        return (self.tag, self.A.shape[0], self.A.shape[1])
 
     def objective(self, x: np.ndarray) -> float:
         """Cost ½xᵀHx + gᵀx."""
@@ -103,59 +112,102 @@ class QpSolver:
         """Forget any warm-start information."""
 
 
+# DAQP's constraint sense flags, and the flag of a row by the sign of its dual (- lower, + upper)
+_ACTIVE, _LOWER, _EQUALITY = 1, 2, 5
+_FLAGS_BY_SIGN = np.array([_ACTIVE | _LOWER, 0, _ACTIVE], dtype=np.int32)
+
+
+@dataclass
+class _Workspace:
+    """One DAQP model and the H and A it holds."""
+
+    model: object
+    H: np.ndarray
+    A: np.ndarray
+    matrix_version: int
+
+
 @dataclass
 class DaqpSolver(QpSolver):
-    """DAQP called directly, one warm-started workspace per problem family and shape.
+    """DAQP called directly: one workspace per problem shape, warm-started per problem family.
 
-    DAQP reads the raw buffers of its inputs, so every array handed to it is made
-    C-contiguous float64 first (a non-contiguous view silently gives wrong answers). The
-    Hessian is handed to a workspace again only when it is a different object from the one
-    it holds: re-passing H makes DAQP refactorise and forget the active set.
+    Each solve starts from the active set of the previous solution of the same ``tag``, carried
+    through ``previous_rows``; families of one shape (the x and y QPs of an MPC cycle) share a
+    workspace, and ``H``/``A`` are handed to it only when they are not the ones it holds (see
+    :attr:`QpProblem.matrix_version`). DAQP reads the raw buffers of its inputs, so every array
+    handed to it is made C-contiguous float64 first (a non-contiguous view silently gives wrong
+    answers).
     """
 
     name = "daqp"
     primal_tol: float = 1e-8
     iter_limit: int = 1000
-    _models: dict = field(default_factory=dict, repr=False)
+    _workspaces: dict = field(default_factory=dict, repr=False)
+    _active: dict = field(default_factory=dict, repr=False)
 
     def reset(self) -> None:
-        self._models.clear()
+        self._workspaces.clear()
+        self._active.clear()
+
+    def _start_sense(self, problem: QpProblem) -> np.ndarray:
+        """DAQP sense flags: the family's previous active set mapped to these rows, and the equalities."""
+        m = problem.A.shape[0]
+        previous = self._active.get(problem.tag)  # flags of the previous rows, then a 0
+        rows = problem.previous_rows
+        if previous is None:
+            sense = np.zeros(m, dtype=np.int32)
+        elif rows is None:
+            sense = previous[:m].copy() if previous.shape[0] == m + 1 else np.zeros(m, dtype=np.int32)
+        elif rows.shape == (m,) and rows.max(initial=-1) < previous.shape[0] - 1:
+            sense = previous[rows]  # row -1 reads the trailing 0
+        else:
+            sense = np.zeros(m, dtype=np.int32)
+        sense[problem.equality] = _EQUALITY
+        return sense
 
     def solve(self, problem: QpProblem) -> QpSolution:
         import daqp
 
-        H = np.ascontiguousarray(problem.H, dtype=np.float64)
         g = np.ascontiguousarray(problem.g, dtype=np.float64)
-        A = np.ascontiguousarray(problem.A, dtype=np.float64)
         upper = np.ascontiguousarray(problem.upper, dtype=np.float64)
         lower = np.ascontiguousarray(problem.lower, dtype=np.float64)
         start = time.perf_counter()
-        key = problem.workspace_key
-        entry = self._models.get(key)
-        if entry is None:
-            sense = np.ascontiguousarray(np.where(problem.equality, 5, 0), dtype=np.int32)
+        key = problem.A.shape
+        workspace = self._workspaces.get(key)
+        sense = self._start_sense(problem)
+        if workspace is None:
+            H = np.ascontiguousarray(problem.H, dtype=np.float64)
+            A = np.ascontiguousarray(problem.A, dtype=np.float64)
             model = daqp.Model()
             model.settings = {"primal_tol": self.primal_tol, "iter_limit": self.iter_limit}
             flag, _ = model.setup(H, g, A, upper, lower, sense)
             if flag < 0:
                 raise SolverError(f"DAQP setup failed with exit flag {flag}", problem.copy(), flag)
-            self._models[key] = (model, problem.H)
+            workspace = _Workspace(model, problem.H, problem.A, problem.matrix_version)
+            self._workspaces[key] = workspace
         else:
-            model, held_H = entry
-            if held_H is problem.H:
-                model.update(f=g, A=A, bupper=upper, blower=lower)
-            else:
-                model.update(H=H, f=g, A=A, bupper=upper, blower=lower)
-                self._models[key] = (model, problem.H)
-        x, _, exitflag, info = model.solve()
+            update: dict = {"f": g, "bupper": upper, "blower": lower, "sense": sense}
+            same_H = workspace.H is problem.H
+            same_A = (same_H and workspace.A is problem.A and problem.matrix_version >= 0
+                      and workspace.matrix_version == problem.matrix_version)
+            if not same_H:
+                update["H"] = np.ascontiguousarray(problem.H, dtype=np.float64)
+            if not same_A:
+                update["A"] = np.ascontiguousarray(problem.A, dtype=np.float64)
+            workspace.model.update(**update)
+            workspace.H, workspace.A, workspace.matrix_version = problem.H, problem.A, problem.matrix_version
+        x, _, exitflag, info = workspace.model.solve()
         elapsed = time.perf_counter() - start
-        if exitflag == -1:
-            # Drop the workspace: its active set belongs to an infeasible problem.
-            self._models.pop(key, None)
-            raise InfeasibleMpc("IS-MPC QP is infeasible (DAQP exit flag -1)", problem.copy(), exitflag)
         if exitflag < 0:
-            self._models.pop(key, None)
+            # Drop the workspace and the family's active set: they belong to a failed problem.
+            self._workspaces.pop(key, None)
+            self._active.pop(problem.tag, None)
+            if exitflag == -1:
+                raise InfeasibleMpc("IS-MPC QP is infeasible (DAQP exit flag -1)", problem.copy(), exitflag)
             raise SolverError(f"DAQP failed with exit flag {exitflag}", problem.copy(), exitflag)
+        active = np.zeros(problem.A.shape[0] + 1, dtype=np.int32)
+        active[:-1] = _FLAGS_BY_SIGN[np.sign(info["lam"]).astype(np.intp) + 1]
+        self._active[problem.tag] = active
         return QpSolution(x=np.array(x), solve_time_s=elapsed, iterations=int(info.get("iterations", -1)))
 
 

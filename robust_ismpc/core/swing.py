@@ -14,6 +14,7 @@ re-timed) touchdown: a shorter step makes the foot come down sooner, continuousl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,16 +51,15 @@ class SwingState:
         return cls(pos_m=pos, vel_mps=np.zeros(3), acc_mps2=np.zeros(3), yaw_rad=float(yaw_rad))
 
 
-def quintic_step(
-    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, T_s: float, dt_s: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def quintic_step(p0: Any, v0: Any, a0: Any, p1: Any, T_s: float, dt_s: float) -> tuple[Any, Any, Any]:
     """Evaluate at ``dt_s`` the quintic from (p0, v0, a0) to (p1, 0, 0) over ``T_s``.
 
-    Arrays broadcast elementwise. Returns position, velocity, acceleration at ``dt_s``; when
-    ``dt_s >= T_s`` the end state is returned.
+    The states are floats, or arrays that broadcast elementwise. Returns position, velocity,
+    acceleration at ``dt_s``; when ``dt_s >= T_s`` the end state is returned.
     """
     if dt_s >= T_s:
-        return np.array(p1, dtype=float), np.zeros_like(p0), np.zeros_like(p0)
+        zero = 0.0 * p0
+        return p1 + zero, zero, zero
     T = T_s
     d = p1 - p0 - v0 * T - 0.5 * a0 * T**2
     dv = -v0 - a0 * T
@@ -102,12 +102,12 @@ def advance_swing(
     T_rem = max(time_to_touchdown_s, 0.0)
     if T_rem < dt_s + 1e-9:  # last tick (absorbs rounding of the touchdown time): land exactly
         T_rem = dt_s
-    # x, y and yaw share one quintic evaluation (elementwise).
-    p0 = np.array([state.pos_m[0], state.pos_m[1], state.yaw_rad])
-    v0 = np.array([state.vel_mps[0], state.vel_mps[1], state.yaw_rate_radps])
-    a0 = np.array([state.acc_mps2[0], state.acc_mps2[1], state.yaw_acc_radps2])
-    p1 = np.array([target_xy_m[0], target_xy_m[1], target_yaw_rad], dtype=float)
-    p, v, a = quintic_step(p0, v0, a0, p1, T_rem, dt_s)
+    # x, y and yaw: one quintic each, in floats (three-element arrays cost more in numpy calls)
+    x, y = (quintic_step(float(state.pos_m[i]), float(state.vel_mps[i]), float(state.acc_mps2[i]),
+                         float(target_xy_m[i]), T_rem, dt_s) for i in range(2))
+    yaw = quintic_step(state.yaw_rad, state.yaw_rate_radps, state.yaw_acc_radps2, float(target_yaw_rad),
+                       T_rem, dt_s)
+    p, v, a = zip(x, y, yaw)
     s = 1.0 if dt_s >= T_rem else state.progress + (1.0 - state.progress) * dt_s / T_rem
     z = 16.0 * height_m * s**2 * (1.0 - s) ** 2
     s_rate = 0.0 if dt_s >= T_rem else (1.0 - s) / (T_rem - dt_s)
