@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -121,7 +122,7 @@ _FLAGS_BY_SIGN = np.array([_ACTIVE | _LOWER, 0, _ACTIVE], dtype=np.int32)
 class _Workspace:
     """One DAQP model and the H and A it holds."""
 
-    model: object
+    model: Any  # daqp.Model (the core imports daqp on first use)
     H: np.ndarray
     A: np.ndarray
     matrix_version: int
