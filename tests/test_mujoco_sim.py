@@ -73,8 +73,9 @@ def test_cop_equals_com_projection_when_still(robot_spec: RobotSpec) -> None:
 
 
 def test_com_velocity_and_angular_momentum_match_mujoco(g1_spec: RobotSpec) -> None:
-    """At a random velocity, the CoM, its velocity (from body velocities) and the robot's angular
-    momentum about its CoM equal MuJoCo's subtree CoM, linear momentum / mass and angular momentum."""
+    """At a random velocity, the CoM (also alone, ``com_position``), its velocity (from body
+    velocities) and the robot's angular momentum about its CoM equal MuJoCo's subtree CoM, linear
+    momentum / mass and angular momentum."""
     model = compile_model(g1_spec)
     data = mujoco.MjData(model)
     standing_state(g1_spec, model, data)
@@ -84,6 +85,7 @@ def test_com_velocity_and_angular_momentum_match_mujoco(g1_spec: RobotSpec) -> N
     robot = MujocoRobot(g1_spec, model, data)
     com, vel = robot.com()
     np.testing.assert_allclose(com, data.subtree_com[robot.root_id], atol=1e-12)
+    np.testing.assert_allclose(robot.com_position(), data.subtree_com[robot.root_id], atol=1e-12)
     np.testing.assert_allclose(vel, data.subtree_linvel[robot.root_id], atol=1e-10)
     np.testing.assert_allclose(robot.angular_momentum(), data.subtree_angmom[robot.root_id], atol=1e-10)
 

@@ -68,3 +68,18 @@ def test_planner_rejects_bad_input():
         WalkCommand(float("nan"), 0.0, 0.0)
     with pytest.raises(ParameterError):
         plan_footsteps(robot, WalkCommand(0.1), -1.0, np.zeros(2), np.zeros(2))
+
+
+def test_rotation_of_one_angle_and_of_many_agree():
+    """``rotation`` of one yaw (the per-cycle fast path, also for numpy scalars) equals the same
+    angle's matrix in a stack, turns x onto (cos, sin) and is orthonormal."""
+    yaws = np.array([-3.0, -0.4, 0.0, 1e-4, 1.2, 3.1])
+    stack = rotation(yaws)
+    assert stack.shape == (6, 2, 2)
+    for yaw, expected in zip(yaws, stack):
+        for one in (float(yaw), yaw):  # a float and a numpy float64
+            matrix = rotation(one)
+            assert matrix.shape == (2, 2)
+            np.testing.assert_allclose(matrix, expected, atol=1e-15)
+            np.testing.assert_allclose(matrix @ [1.0, 0.0], [np.cos(yaw), np.sin(yaw)], atol=1e-15)
+            np.testing.assert_allclose(matrix.T @ matrix, np.eye(2), atol=1e-15)

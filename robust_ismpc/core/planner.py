@@ -55,6 +55,9 @@ class WalkCommand:
 
 def rotation(yaw_rad: float | np.ndarray) -> np.ndarray:
     """2-D rotation matrix (or stack of them, shape (..., 2, 2)) for ``yaw_rad``."""
+    if isinstance(yaw_rad, float):  # one angle (the per-cycle case): no stacking
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+        return np.array([[c, -s], [s, c]])
     c, s = np.cos(yaw_rad), np.sin(yaw_rad)
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 

@@ -322,7 +322,7 @@ class MujocoSimulation:
             # state the step started from: the forces the step applied, and where
             contacts = self.robot.contacts()
             contact_force += contacts.horizontal_force_n
-            contact_moment += contacts.moment_about(self.robot.com()[0])
+            contact_moment += contacts.moment_about(self.robot.com_position())
             if recorder is not None and recorder.due(self.data.time):
                 start = time.perf_counter()
                 recorder.capture(self.data)

@@ -304,6 +304,10 @@ class MujocoRobot:
         xipos, vel_points, _ = self._body_motion()
         return self._com_of(xipos, vel_points)
 
+    def com_position(self) -> np.ndarray:
+        """The CoM position of :meth:`com` alone [m], shape (3,) (no velocities computed)."""
+        return self._body_mass @ self.data.xipos[self.robot_body_ids] / self.mass_kg
+
     def _com_of(self, xipos: np.ndarray, vel_points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         mass = self._body_mass
         return mass @ xipos / self.mass_kg, mass @ vel_points / self.mass_kg

@@ -44,6 +44,7 @@ from ..robot import MujocoRobot
 from .actuators import ActuatorMap, actuator_torque_limits_nm
 
 SIDES = ("left", "right")
+_NO_BOUND = 1e9  # DAQP's stand-in for an infinite row bound
 
 
 @dataclass(frozen=True)
@@ -204,15 +205,22 @@ class InverseDynamicsQp:
         self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
         nv = model.nv
         self._M = np.zeros((nv, nv))
-        # the Hessian's constant part: the regularisation and the posture task (a selection of q̈)
+        # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
+        # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
         self._H_const[self._dof, self._dof] += settings.posture_weight
-        # rows of a sole in contact: normal force >= its minimum; then each of f_x, f_y, m_x, m_y,
-        # m_z within ± its limit times the normal force
-        self._wrench_limits = np.array([settings.friction, settings.friction, self._half_width, self._half_length,
-                                        settings.torsion_m])[:, None]
-        self._contact_lower = np.concatenate([[settings.min_normal_force_n], np.full(10, -np.inf)])
-        self._contact_upper = np.concatenate([[np.inf], np.zeros(10)])
+        self._H_const[3:6, 3:6] += settings.root_weight * np.eye(3)
+        # rows of a sole in contact, on its wrench in the sole frame (f, m): normal force >= its
+        # minimum; then each of f_x, f_y, m_x, m_y, m_z within ± its limit times the normal force
+        limits = (settings.friction, settings.friction, self._half_width, self._half_length, settings.torsion_m)
+        self._contact_rows = np.zeros((11, 6))
+        self._contact_rows[0, 2] = 1.0
+        for k, (component, limit) in enumerate(zip((0, 1, 3, 4, 5), limits)):
+            self._contact_rows[1 + 2 * k, component] = 1.0
+            self._contact_rows[2 + 2 * k, component] = -1.0
+            self._contact_rows[1 + 2 * k:3 + 2 * k, 2] = -limit
+        self._contact_lower = np.concatenate([[settings.min_normal_force_n], np.full(10, -_NO_BOUND)])
+        self._contact_upper = np.concatenate([[_NO_BOUND], np.zeros(10)])
         self._jac_com_prev: np.ndarray | None = None
         self._ang_prev: np.ndarray | None = None
         # reference sole velocities of the previous control tick, for the swing acceleration
@@ -283,32 +291,30 @@ class InverseDynamicsQp:
         ref_anchor = sum(feet[side].pos_m for side in stance) / len(stance)
 
         # Variables x = (q̈ (nv), left sole wrench (6), right sole wrench (6)). Every task row acts
-        # on q̈ only: its Hessian and gradient terms go into the q̈ block.
-        H = self._H_const.copy()
-        g = np.zeros(n)
-        H_acc, g_acc = H[:nv, :nv], g[:nv]
-
-        def add_task(J: np.ndarray, b: np.ndarray, w: float) -> None:
-            H_acc[...] += w * (J.T @ J)
-            g_acc[...] -= w * (J.T @ b)
-
+        # on q̈ only: its Hessian and gradient terms go into the q̈ block, from one stack of
+        # weighted rows √w (J q̈ - b).
         contact_sides = [side for side in SIDES if side in stance and feet[side].in_contact]
+        task_J: list[np.ndarray] = []
+        task_b: list[np.ndarray] = []
         n_eq = 6 + 6 * len(contact_sides)
-        A_eq = np.zeros((n_eq, n))
-        rhs = np.empty(n_eq)
+        n_dof = len(self._dof)
+        m_rows = n_eq + sum(11 if feet[side].in_contact else 6 for side in SIDES) + n_dof
+        A = np.zeros((m_rows, n))
+        upper_all = np.empty(m_rows)
+        lower_all = np.empty(m_rows)
         # floating-base rows of the dynamics
-        A_eq[:6, :nv] = M[:6]
-        A_eq[:6, nv:nv + 6] = -jac["left"][0][:, :6].T
-        A_eq[:6, nv + 6:] = -jac["right"][0][:, :6].T
-        rhs[:6] = -bias[:6]
-        row_eq = 6
+        A[:6, :nv] = M[:6]
+        A[:6, nv:nv + 6] = -jac["left"][0][:, :6].T
+        A[:6, nv + 6:] = -jac["right"][0][:, :6].T
+        upper_all[:6] = -bias[:6]
+        row = 6
         for side in SIDES:
             J, Jdot = jac[side]
             velocity = J @ qvel
             if side in contact_sides:
-                A_eq[row_eq:row_eq + 6, :nv] = J
-                rhs[row_eq:row_eq + 6] = -Jdot @ qvel - s.contact_damping * velocity
-                row_eq += 6
+                A[row:row + 6, :nv] = J
+                upper_all[row:row + 6] = -Jdot @ qvel - s.contact_damping * velocity
+                row += 6
                 continue
             foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
             target = real_anchor + (foot_pos - ref_anchor)
@@ -316,7 +322,10 @@ class InverseDynamicsQp:
                       + s.foot_kd * (foot_vel - velocity[:3]))
             angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
                        - s.foot_kd * velocity[3:])
-            add_task(J, np.concatenate([linear, angular]) - Jdot @ qvel, s.foot_weight)
+            w = math.sqrt(s.foot_weight)
+            task_J.append(w * J)
+            task_b.append(w * (np.concatenate([linear, angular]) - Jdot @ qvel))
+        lower_all[:n_eq] = upper_all[:n_eq]
         # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
         com_vel = jac_com @ qvel
@@ -326,24 +335,31 @@ class InverseDynamicsQp:
         com_target = real_anchor + (com_pos - ref_anchor)
         com_acc = (reference.com_acc_mps2 + s.com_kp * (com_target - com)
                    + s.com_kd * (com_vel_ref - com_vel))
-        add_task(jac_com, com_acc - jac_com_dot @ qvel, s.com_weight)
+        w = math.sqrt(s.com_weight)
+        task_J.append(w * jac_com)
+        task_b.append(w * (com_acc - jac_com_dot @ qvel))
         # centroidal angular momentum: its rate, scaled to the CoP shift it causes [m], damped
         if s.momentum_weight > 0:
             ang = np.zeros((3, nv))
             mujoco.mj_angmomMat(m, d, ang, self._root)
             ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
             self._ang_prev = ang
-            scale = 1.0 / (self.robot.mass_kg * 9.81)
-            momentum = ang @ qvel
-            add_task(scale * ang, scale * (-s.momentum_damping * momentum - ang_dot @ qvel), s.momentum_weight)
-        # root orientation towards the IK configuration's (free joint: angular velocity in the body frame)
+            w = math.sqrt(s.momentum_weight) / (self.robot.mass_kg * 9.81)
+            task_J.append(w * ang)
+            task_b.append(w * (-s.momentum_damping * (ang @ qvel) - ang_dot @ qvel))
+        J_tasks = np.concatenate(task_J)
+        H = self._H_const.copy()
+        H[:nv, :nv] += J_tasks.T @ J_tasks
+        g = np.zeros(n)
+        g[:nv] = -(np.concatenate(task_b) @ J_tasks)
+        # root orientation towards the IK configuration's (free joint: angular velocity in the
+        # body frame); its Hessian term is constant, in _H_const
         root_rot = d.xmat[self._root].reshape(3, 3)
         target_rot = np.empty(9)
         mujoco.mju_quat2Mat(target_rot, ik_qpos[3:7])
         omega = root_rot @ qvel[3:6]
         root_error = s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega
-        H_acc[3:6, 3:6] += s.root_weight * (root_rot.T @ root_rot)
-        g_acc[3:6] -= s.root_weight * (root_rot.T @ root_error)
+        g[3:6] -= s.root_weight * (root_error @ root_rot)
         # posture towards the IK configuration (its Hessian term is constant, in _H_const)
         act = self.actuators
         q = d.qpos[self._qpos_index]
@@ -354,43 +370,29 @@ class InverseDynamicsQp:
 
         # inequalities: a sole in contact keeps its force in the friction pyramid and its centre of
         # pressure in the shrunk sole; a sole in the air carries no wrench
-        blocks, lower_rows, upper_rows = [], [], []
         for i, side in enumerate(SIDES):
             start = nv + 6 * i
             if not feet[side].in_contact:
-                block = np.zeros((6, n))
-                block[:, start:start + 6] = np.eye(6)
-                blocks.append(block)
-                lower_rows.append(np.zeros(6))
-                upper_rows.append(np.zeros(6))
+                A[row:row + 6, start:start + 6] = np.eye(6)
+                upper_all[row:row + 6] = lower_all[row:row + 6] = 0.0
+                row += 6
                 continue
             RT = soles[side][1].T  # rows: the sole's axes in the world
-            wrench_rows = np.zeros((5, 6))  # f_x, f_y, m_x, m_y, m_z in the sole frame
-            wrench_rows[0, :3], wrench_rows[1, :3] = RT[0], RT[1]
-            wrench_rows[2:, 3:] = RT
-            normal = np.zeros(6)
-            normal[:3] = RT[2]
-            block = np.zeros((11, n))
-            block[0, start:start + 6] = normal
-            block[1::2, start:start + 6] = wrench_rows - self._wrench_limits * normal
-            block[2::2, start:start + 6] = -wrench_rows - self._wrench_limits * normal
-            blocks.append(block)
-            lower_rows.append(self._contact_lower)
-            upper_rows.append(self._contact_upper)
-        torque_rows = np.zeros((len(self._dof), n))
+            A[row:row + 11, start:start + 3] = self._contact_rows[:, :3] @ RT
+            A[row:row + 11, start + 3:start + 6] = self._contact_rows[:, 3:] @ RT
+            lower_all[row:row + 11] = self._contact_lower
+            upper_all[row:row + 11] = self._contact_upper
+            row += 11
+        torque_rows = A[row:]
         torque_rows[:, :nv] = M[self._dof]
         torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
         torque_rows[:, nv + 6:] = -jac["right"][0][:, self._dof].T
         torque_bias = bias[self._dof]
-        A = np.vstack([A_eq, *blocks, torque_rows])
-        upper_all = np.concatenate([rhs, *upper_rows, self._limits[:, 1] - torque_bias])
-        lower_all = np.concatenate([rhs, *lower_rows, self._limits[:, 0] - torque_bias])
-        finite = 1e9
-        upper_all = np.minimum(upper_all, finite)
-        lower_all = np.maximum(lower_all, -finite)
-        sense = np.zeros(len(upper_all), dtype=np.int32)
+        np.minimum(self._limits[:, 1] - torque_bias, _NO_BOUND, out=upper_all[row:])
+        np.maximum(self._limits[:, 0] - torque_bias, -_NO_BOUND, out=lower_all[row:])
+        sense = np.zeros(m_rows, dtype=np.int32)
         sense[:n_eq] = 5  # equality rows
-        H, A = np.ascontiguousarray(H), np.ascontiguousarray(A)
+        finite = _NO_BOUND
         x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0 and np.isfinite(self._limits).any():
             # no motion within the torque limits meets the contacts: take the unlimited solution
