@@ -14,6 +14,7 @@ from robust_ismpc.core.feasibility import (
     affine_inner_estimate,
     feasibility_bounds,
     feasibility_bounds_at,
+    feasibility_bounds_at_axes,
     feasibility_breakpoints,
     zmp_row_weights,
 )
@@ -67,6 +68,20 @@ def _hrp4_inputs(axis: str, **changes) -> AxisFeasibilityInputs:
     )
     kwargs.update(changes)
     return straight_gait_inputs(axis, **kwargs)
+
+
+@pytest.mark.parametrize("tail_anchor", ["candidate", "decision"])
+def test_both_axes_at_once_equal_each_axis_alone(tail_anchor):
+    """``feasibility_bounds_at_axes`` (the timing evaluated once for both axes) equals
+    ``feasibility_bounds_at`` per axis, in single and double support, and refuses axes whose
+    timings differ."""
+    inputs_x, inputs_y = _hrp4_inputs("x", tail_anchor=tail_anchor), _hrp4_inputs("y", tail_anchor=tail_anchor)
+    for a1 in np.arange(-0.19, 0.6, 0.01):
+        (lx, ux), (ly, uy) = feasibility_bounds_at_axes(inputs_x, inputs_y, float(a1))
+        assert (lx, ux) == pytest.approx(feasibility_bounds_at(inputs_x, float(a1)), abs=1e-14)
+        assert (ly, uy) == pytest.approx(feasibility_bounds_at(inputs_y, float(a1)), abs=1e-14)
+    with pytest.raises(ParameterError, match="different timings"):
+        feasibility_bounds_at_axes(inputs_x, _hrp4_inputs("y", T_ds_s=0.1, tail_anchor=tail_anchor), 0.1)
 
 
 @pytest.mark.parametrize("tail_anchor", ["candidate", "decision"])

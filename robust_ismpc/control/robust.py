@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at, zmp_row_weights
+from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at_axes, zmp_row_weights
 from ..core.mpc import MpcPlan, MpcState
 from ..core.params import MpcParams, RobotParams
 from ..core.planner import kinematic_bounds, rotation
@@ -354,9 +354,7 @@ class RobustIsmpcController(IsmpcController):
         zmp_local = R.T @ (state.zmp_m - origin)
         w0 = inputs_x.zmp_gain
         if self._bounds_now is None or self._bounds_now[0] != (key, remaining):
-            self._bounds_now = (
-                (key, remaining), feasibility_bounds_at(inputs_x, remaining), feasibility_bounds_at(inputs_y, remaining),
-            )
+            self._bounds_now = ((key, remaining), *feasibility_bounds_at_axes(inputs_x, inputs_y, remaining))
         _, (lx, ux), (ly, uy) = self._bounds_now
         # the QP bounds the ZMP plus the swing leg's CoP offset: both bounds move by -Σ κ_i o_i
         cop_shift = R.T @ self._cop_shift_m(t)

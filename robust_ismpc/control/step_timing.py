@@ -31,7 +31,7 @@ from ..core.feasibility import (
     AffineFeasibility,
     AxisFeasibilityInputs,
     affine_inner_estimate,
-    feasibility_bounds_at,
+    feasibility_bounds_at_axes,
 )
 from ..exceptions import ParameterError
 
@@ -291,9 +291,7 @@ def solve_sta(
     dl_qp, hard, slack = solve_sta_qp(dcm, est_x, est_y, dl_nom, p.margin_m, p.slack_weight)
 
     def exact(rem: float) -> tuple[tuple[float, float], tuple[float, float], bool, bool]:
-        lx, ux = feasibility_bounds_at(inputs_x, rem)
-        ly, uy = feasibility_bounds_at(inputs_y, rem)
-        bx, by = (float(lx), float(ux)), (float(ly), float(uy))
+        bx, by = feasibility_bounds_at_axes(inputs_x, inputs_y, rem)
         inside = bool(bx[0] <= dcm[0] <= bx[1] and by[0] <= dcm[1] <= by[1])
         m = p.margin_m
         with_margin = bool(bx[0] + m <= dcm[0] <= bx[1] - m and by[0] + m <= dcm[1] <= by[1] - m)

@@ -227,10 +227,11 @@ class AxisFeasibilityInputs:
         return int(round(self.preview_horizon_s / self.sampling_period_s))
 
 
-def _bounds_core(
+def _ramp_weights(
     inp: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray, cutoff_s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form bounds for first-ramp starts a_1 (M,) and decision cut-offs (M,)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The timing part of the bounds, common to both axes: G (M, N), γ (M, N) and, once footstep 1
+    has landed (some a_1 < 0), ρ_j(0) (M, N) (None before)."""
     eta, T_ds = inp.eta, inp.T_ds_s
     a = first_ramp_start_s[:, None] + inp.ramp_offsets_s  # (M, N)
     # G_j = rho_j(0) + (e^{-eta max(a,0)} - e^{-eta min(a+T_ds, T_p)})_+ / (eta T_ds)
@@ -238,13 +239,12 @@ def _bounds_core(
     G -= np.exp(-eta * np.minimum(a + T_ds, inp.preview_horizon_s))
     np.maximum(G, 0.0, out=G)
     G *= 1.0 / (eta * T_ds)
-    landed = bool(first_ramp_start_s.min() < 0.0)
-    if landed:
+    rho0 = None
+    if first_ramp_start_s.min() < 0.0:
         rho0 = np.clip(a * (-1.0 / T_ds), 0.0, 1.0)
         G += rho0
     cut = cutoff_s[:, None]
     decision = (a > 0.0) & (a < cut)
-    nominal = inp.disp_nominal_m
     if inp.tail_anchor == "candidate":
         # G of the first footstep at or after the cut-off (0 if none; G is non-increasing in j):
         # it carries the jump from the last decision footstep to the first absolute candidate.
@@ -252,13 +252,35 @@ def _bounds_core(
         gamma = np.where(decision, G - G_next, 0.0)
     else:
         gamma = np.where(decision, G, 0.0)
+    return G, gamma, rho0
+
+
+def _axis_bounds(
+    inp: AxisFeasibilityInputs, G: np.ndarray, gamma: np.ndarray, rho0: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """One axis's bounds (M,) from the ramp weights of :func:`_ramp_weights`."""
+    nominal = inp.disp_nominal_m
     k = inp._consts  # type: ignore[attr-defined]
     centre = G @ nominal
-    if landed:
+    if rho0 is not None:
         centre -= k["w0"] * (rho0 @ nominal)  # c_0 = p_0 + sum_j rho_j(0) Δ_j
     upper = centre + gamma @ inp._reach_hi + k["upper"]  # type: ignore[attr-defined]
     lower = centre + gamma @ inp._reach_lo + k["lower"]  # type: ignore[attr-defined]
     return lower, upper
+
+
+def _bounds_core(
+    inp: AxisFeasibilityInputs, first_ramp_start_s: np.ndarray, cutoff_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form bounds for first-ramp starts a_1 (M,) and decision cut-offs (M,)."""
+    return _axis_bounds(inp, *_ramp_weights(inp, first_ramp_start_s, cutoff_s))
+
+
+def _check_ramp_starts(first_ramp_start_s: np.ndarray | float) -> np.ndarray:
+    a1 = np.atleast_1d(np.asarray(first_ramp_start_s, dtype=float))
+    if a1.ndim != 1 or not np.all(np.isfinite(a1)):
+        raise ParameterError(f"first_ramp_start_s must be finite, scalar or 1-D, got {first_ramp_start_s!r}")
+    return a1
 
 
 def feasibility_bounds_at(
@@ -280,16 +302,40 @@ def feasibility_bounds_at(
     lower, upper : ndarray, shape (M,) (or float for a scalar input)
         x_u^m and x_u^M [m], to be compared with the shifted DCM x_c + ẋ_c/η + w̃/η².
     """
-    a1 = np.asarray(first_ramp_start_s, dtype=float)
-    scalar = a1.ndim == 0
-    a1 = np.atleast_1d(a1)
-    if a1.ndim != 1 or not np.all(np.isfinite(a1)):
-        raise ParameterError(f"first_ramp_start_s must be finite, scalar or 1-D, got {first_ramp_start_s!r}")
+    a1 = _check_ramp_starts(first_ramp_start_s)
     cutoff = np.full(a1.shape, inputs.control_horizon_s - _CLASSIFY_TOL_S)
     lower, upper = _bounds_core(inputs, a1, cutoff)
-    if scalar:
+    if np.ndim(first_ramp_start_s) == 0:
         return float(lower[0]), float(upper[0])
     return lower, upper
+
+
+def feasibility_bounds_at_axes(
+    inputs_x: AxisFeasibilityInputs, inputs_y: AxisFeasibilityInputs, first_ramp_start_s: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """:func:`feasibility_bounds_at` of both axes at one a_1, their common timing evaluated once.
+
+    Returns
+    -------
+    (lower_x, upper_x), (lower_y, upper_y) : floats [m]
+
+    Raises
+    ------
+    ParameterError
+        If the two axes do not describe the same footstep timing.
+    """
+    if not (inputs_x.ramp_offsets_s.shape == inputs_y.ramp_offsets_s.shape
+            and np.array_equal(inputs_x.ramp_offsets_s, inputs_y.ramp_offsets_s)
+            and (inputs_x.eta, inputs_x.T_ds_s, inputs_x.preview_horizon_s, inputs_x.control_horizon_s,
+                 inputs_x.tail_anchor)
+            == (inputs_y.eta, inputs_y.T_ds_s, inputs_y.preview_horizon_s, inputs_y.control_horizon_s,
+                inputs_y.tail_anchor)):
+        raise ParameterError("feasibility_bounds_at_axes: the x and y inputs describe different timings")
+    a1 = _check_ramp_starts(first_ramp_start_s)
+    cutoff = np.full(a1.shape, inputs_x.control_horizon_s - _CLASSIFY_TOL_S)
+    weights = _ramp_weights(inputs_x, a1, cutoff)
+    (lx, ux), (ly, uy) = _axis_bounds(inputs_x, *weights), _axis_bounds(inputs_y, *weights)
+    return (float(lx[0]), float(ux[0])), (float(ly[0]), float(uy[0]))
 
 
 def feasibility_bounds(
