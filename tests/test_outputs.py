@@ -60,6 +60,24 @@ def test_long_run_figure_shows_the_last_seconds_and_an_overview(tmp_path, monkey
     assert len(figures[-1].axes) == 4
 
 
+def test_the_gait_figure_is_drawn_once(tmp_path, monkeypatch):
+    """Writing the gait figure renders it once (an operation count: a layout engine left on the
+    figure makes ``savefig`` render it twice), and the PNG is complete."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draws = []
+    original = FigureCanvasAgg.draw
+
+    def counting(canvas):
+        draws.append(canvas)
+        return original(canvas)
+
+    monkeypatch.setattr(FigureCanvasAgg, "draw", counting)
+    path = plot_run(_walk_trace(10.0), tmp_path / "gait.png")
+    assert len(draws) == 1
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
 def test_video_overlay_draws_time_label_and_a_push_arrow():
     """Case 14: the overlay writes text in the top-left corner, and a red arrow appears only while
     an external force acts."""

@@ -30,8 +30,14 @@ def save_figure(fig, path: str | Path, crop: bool = True) -> None:
 
 
 def finish_figure(plt, fig, path: str | Path) -> Path:
-    """Lay out (``tight_layout``), write and close ``fig``; returns the path."""
-    fig.tight_layout()
+    """Lay out (as ``tight_layout``), write and close ``fig``; returns the path.
+
+    The layout is applied once, without leaving a layout engine on the figure: with one,
+    ``savefig`` draws the whole figure an extra time before the drawing it saves.
+    """
+    from matplotlib.layout_engine import TightLayoutEngine
+
+    TightLayoutEngine().execute(fig)
     save_figure(fig, Path(path), crop=False)
     plt.close(fig)
     return Path(path)
