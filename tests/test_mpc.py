@@ -5,6 +5,7 @@ import pytest
 from fixtures import straight_plan
 
 from robust_ismpc.control.controller import IsmpcController
+from robust_ismpc.core.layout import QpLayout
 from robust_ismpc.core.mpc import IsmpcQp, MpcState
 from robust_ismpc.core.params import MpcParams, robot_params
 from robust_ismpc.core.qp import DaqpSolver, QpsolversSolver
@@ -197,3 +198,39 @@ def test_qp_solves_per_cycle(robot, omega):
     assert len(coupled) == int(round(6.0 / controller.dt))
     assert solver.solves == sum(1 if c else 2 for c in coupled)
     assert any(coupled) == (omega != 0.0)
+
+
+@pytest.mark.parametrize("omega", [0.0, 0.3])
+def test_built_rows_follow_the_layout(robot, omega):
+    """The rows of the built QP are where ``QpLayout`` says (which the warm-start row map relies
+    on): ZMP rows act on the ZMP velocities, kinematic rows on the footsteps only, and the
+    stability equalities close the matrix; the next cycle's rows map onto these, one sample on."""
+    plan = straight_plan(robot, 0.3, omega=omega, duration_s=12.0)
+    qp = IsmpcQp(robot, MpcParams())
+    state = _midstep_state(plan, robot)
+    problems, layout, hf = qp.build(plan, state)
+    assert layout.coupled == (omega != 0.0)
+    assert layout.F > 0
+    for problem in problems:
+        A = problem.A
+        assert A.shape == (layout.m, layout.n)
+        np.testing.assert_array_equal(np.flatnonzero(problem.equality), np.arange(layout.m)[layout.stability_rows()])
+        for axis in range(2 if layout.coupled else 1):
+            zmp, kin = layout.zmp_rows(axis), layout.kinematic_rows(axis)
+            assert np.all(np.abs(A[zmp][:, layout.zmp_vel(0)]).sum(axis=1)
+                          + (np.abs(A[zmp][:, layout.zmp_vel(1)]).sum(axis=1) if layout.coupled else 0) > 0)
+            for other in range(2 if layout.coupled else 1):
+                assert not A[kin][:, layout.zmp_vel(other)].any()
+            assert np.all(np.abs(A[kin]).sum(axis=1) > 0)
+    rows = layout.rows_from(layout, 1, 0)
+    assert rows is not None and rows.shape == (layout.m,)
+    zmp = layout.zmp_rows(0)
+    np.testing.assert_array_equal(rows[zmp][:-1], np.arange(zmp.start + 1, zmp.stop))
+    assert rows[zmp][-1] == -1  # the horizon's new last sample has no predecessor
+    np.testing.assert_array_equal(rows[layout.stability_rows()], np.arange(layout.m)[layout.stability_rows()])
+    assert layout.rows_from(QpLayout(C=layout.C, F=layout.F, coupled=not layout.coupled), 1, 0) is None
+    # the first free footstep moved on by one: kinematic row j continues the previous row j + 1
+    moved = layout.rows_from(layout, 1, 1)
+    kin = layout.kinematic_rows(0)
+    np.testing.assert_array_equal(moved[kin][:-1], np.arange(kin.start + 1, kin.stop))
+    assert moved[kin][-1] == -1
