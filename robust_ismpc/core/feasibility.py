@@ -331,6 +331,8 @@ def feasibility_bounds_at_axes(
             == (inputs_y.eta, inputs_y.T_ds_s, inputs_y.preview_horizon_s, inputs_y.control_horizon_s,
                 inputs_y.tail_anchor)):
         raise ParameterError("feasibility_bounds_at_axes: the x and y inputs describe different timings")
+    if np.ndim(first_ramp_start_s) != 0:
+        raise ParameterError(f"feasibility_bounds_at_axes takes one first_ramp_start_s, got {first_ramp_start_s!r}")
     a1 = _check_ramp_starts(first_ramp_start_s)
     cutoff = np.full(a1.shape, inputs_x.control_horizon_s - _CLASSIFY_TOL_S)
     weights = _ramp_weights(inputs_x, a1, cutoff)

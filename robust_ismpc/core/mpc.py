@@ -328,7 +328,7 @@ class IsmpcQp:
         return [problem], layout, hf
 
     def _previous_rows(self, t_s: float, layout: QpLayout, first_free: int) -> np.ndarray:
-        """Row map onto the previous build's QP (a warm-start hint; see :meth:`QpLayout.rows_from`).
+        """Row map onto the last solved QP (a warm-start hint; see :meth:`QpLayout.rows_from`).
 
         All -1 (start cold) when there is none: the first cycle, a time step that is not a whole
         number of samples, or a switch between per-axis and coupled QPs.
