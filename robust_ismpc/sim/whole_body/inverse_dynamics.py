@@ -392,14 +392,12 @@ class InverseDynamicsQp:
         np.maximum(self._limits[:, 0] - torque_bias, -_NO_BOUND, out=lower_all[row:])
         sense = np.zeros(m_rows, dtype=np.int32)
         sense[:n_eq] = 5  # equality rows
-        finite = _NO_BOUND
         x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0 and np.isfinite(self._limits).any():
             # no motion within the torque limits meets the contacts: take the unlimited solution
             # (the motors saturate, as they would with any controller) rather than none
             self.limit_relaxations += 1
-            torques = slice(len(upper_all) - len(self._dof), None)
-            upper_all[torques], lower_all[torques] = finite, -finite
+            upper_all[row:], lower_all[row:] = _NO_BOUND, -_NO_BOUND  # the torque rows
             x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0:
             self.failures += 1
