@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -118,3 +119,90 @@ def step_simulation(sim, controller, duration_s: float, recorder=None, stop_on_f
         recorder.close()
     return SteppedRun(np.array(rows["com"]), np.array(rows["ref"]), np.array(rows["left"]), np.array(rows["right"]),
                       np.array(rows["force"]), np.array(rows["outside"]), fallen, fall_time, render_s)
+
+
+#: The newcomer's robot (issue 29): its model's own timestep [s], the visual mesh under each ankle
+#: (x from, to; y half-width [m]) and the colliding sole box (centre in the ankle frame, half sizes [m]).
+NEWCOMER_TIMESTEP_S = 0.01
+NEWCOMER_MESH_X_M, NEWCOMER_MESH_HALF_Y_M = (-0.087, 0.127), 0.066
+NEWCOMER_BOX_POS_M, NEWCOMER_BOX_HALF_M = (0.02, 0.0, -0.06), (0.125, 0.065, 0.01)
+
+
+def newcomer_scene(folder: Path) -> Path:
+    """A 40 kg humanoid MJCF scene that is not one of ours, as a new user brings it (issue 29).
+
+    Six-joint legs under a pelvis; each foot is an ankle body whose only geom is a visual mesh
+    (collisions off) 21.4 x 13.2 cm, whose lowest point is as low as the box of its child body
+    ``l_sole``/``r_sole``, the only geom that collides with the floor (25 x 13 cm); the sole
+    bodies are placeholders (1 kg, 1 kg m² on each axis); the timestep is 10 ms; motors on every
+    joint. Writes ``folder/scene.xml`` and returns its path.
+    """
+    box = " ".join(str(v) for v in NEWCOMER_BOX_HALF_M)
+    box_pos = " ".join(str(v) for v in NEWCOMER_BOX_POS_M)
+    legs = []
+    for side, y in (("l", 0.1), ("r", -0.1)):
+        legs.append(f"""
+      <body name="{side}_hip_yaw_link" pos="0 {y} -0.05">
+        <joint name="{side}_hip_yaw" axis="0 0 1" range="-0.8 0.8"/>
+        <inertial pos="0 0 0" mass="1" diaginertia="0.001 0.001 0.001"/>
+        <geom class="visual" type="sphere" size="0.05"/>
+        <body name="{side}_hip_roll_link">
+          <joint name="{side}_hip_roll" axis="1 0 0" range="-0.6 0.6"/>
+          <inertial pos="0 0 0" mass="1" diaginertia="0.001 0.001 0.001"/>
+          <geom class="visual" type="sphere" size="0.05"/>
+          <body name="{side}_thigh">
+            <joint name="{side}_hip_pitch" axis="0 1 0" range="-2 1"/>
+            <inertial pos="0 0 -0.2" mass="4" diaginertia="0.055 0.055 0.005"/>
+            <geom class="visual" type="capsule" fromto="0 0 0 0 0 -0.4" size="0.05"/>
+            <body name="{side}_shin" pos="0 0 -0.4">
+              <joint name="{side}_knee" axis="0 1 0" range="0 2.4"/>
+              <inertial pos="0 0 -0.2" mass="3" diaginertia="0.04 0.04 0.004"/>
+              <geom class="visual" type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04"/>
+              <body name="{side}_ankle_pitch_link" pos="0 0 -0.4">
+                <joint name="{side}_ankle_pitch" axis="0 1 0" range="-1 1"/>
+                <inertial pos="0 0 0" mass="0.5" diaginertia="0.0002 0.0002 0.0002"/>
+                <geom class="visual" type="sphere" size="0.03"/>
+                <body name="{side}_ankle">
+                  <joint name="{side}_ankle_roll" axis="1 0 0" range="-0.5 0.5"/>
+                  <inertial pos="0.02 0 -0.04" mass="1.5" diaginertia="0.002 0.005 0.006"/>
+                  <geom class="visual" type="mesh" mesh="ankle_shell"/>
+                  <body name="{side}_sole" pos="{box_pos}">
+                    <inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+                    <geom name="{side}_sole_box" type="box" size="{box}"/>
+                  </body>
+                </body>
+              </body>
+            </body>
+          </body>
+        </body>
+      </body>""")
+    joints = [f"{s}_{j}" for s in "lr" for j in ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")]
+    motors = "\n".join(f'    <motor joint="{j}" ctrlrange="-150 150"/>' for j in joints)
+    bottom = NEWCOMER_BOX_POS_M[2] - NEWCOMER_BOX_HALF_M[2]  # the mesh reaches as low as the box
+    ys = (-NEWCOMER_MESH_HALF_Y_M, NEWCOMER_MESH_HALF_Y_M)
+    vertices = " ".join(f"{x} {y} {z}" for x in NEWCOMER_MESH_X_M for y in ys for z in (bottom, 0.0))
+    xml = f"""<mujoco model="newcomer">
+  <compiler angle="radian"/>
+  <option timestep="{NEWCOMER_TIMESTEP_S}"/>
+  <default>
+    <joint damping="1" armature="0.01"/>
+    <default class="visual"><geom contype="0" conaffinity="0" group="2"/></default>
+  </default>
+  <asset><mesh name="ankle_shell" vertex="{vertices}"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 0.05"/>
+    <body name="pelvis" pos="0 0 0.92">
+      <freejoint/>
+      <inertial pos="0 0 0.15" mass="16" diaginertia="0.333 0.267 0.173"/>
+      <geom class="visual" type="box" pos="0 0 0.15" size="0.1 0.15 0.2"/>{"".join(legs)}
+    </body>
+  </worldbody>
+  <actuator>
+{motors}
+  </actuator>
+</mujoco>
+"""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "scene.xml"
+    path.write_text(xml)
+    return path

@@ -63,6 +63,22 @@ def test_run_writes_summary_and_plot(tmp_path):
     assert (out / "trace.npz").exists()
 
 
+def test_every_comparison_json_has_one_schema(tmp_path):
+    """Issue 29: a free-form `ismpc compare` (LIP, a push) writes the keys of a named scenario's
+    comparison.json (MuJoCo, paper-push on G1), at the top and per controller, with the run
+    durations and the timing before and after the push."""
+    free, named = tmp_path / "free", tmp_path / "named"
+    assert main(["compare", "--push", "0,20@1:0.1", "--duration", "2", "--out", str(free), "--quiet"]) == 0
+    assert main(["compare", "paper-push", "--duration", "0.5", "--out", str(named), "--quiet"]) == 0
+    a, b = (json.loads((out / "comparison.json").read_text()) for out in (free, named))
+    assert list(a) == list(b)
+    for label in ("nominal", "robust"):
+        assert list(a[label]) == list(b[label])
+    assert a["scenario"] is None and b["scenario"] == "paper-push"
+    assert a["robust"]["duration_s"] == 2.0 and a["robust"]["event_s"] == 1.0
+    assert a["robust"]["adaptations_before_hit"] is not None and a["robust"]["adaptations_after_hit"] is not None
+
+
 def test_existing_output_is_not_overwritten(tmp_path, capsys):
     """A non-empty --out is refused without --overwrite and accepted with it."""
     out = tmp_path / "run"

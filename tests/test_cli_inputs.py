@@ -213,3 +213,33 @@ def test_out_created_for_a_failing_command_is_removed(tmp_path, capsys):
     out = tmp_path / "new"
     _refused(["compare", "paper-ball", "--duration", "0.5", "--out", str(out)], capsys)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", [["run"], ["compare"]])
+@pytest.mark.parametrize("flag,value", [("--force", "-45,0@3:"), ("--force", "-45,-10"), ("--force", "-5.5,0@1:2"),
+                                        ("--push", "-20,0@2:0.1"), ("--push", "-.5,-30@4.2:0.1")])
+def test_negative_force_values_need_no_equals_sign(command, flag, value):
+    """Issue 29: the documented `--force -45,0@3:` parses as `--force=-45,0@3:` does (argparse
+    took the value for a flag: "expected one argument")."""
+    from robust_ismpc.cli.args import build_parser
+
+    parser = build_parser()
+    spaced = parser.parse_args([*command, flag, value, flag, "10,0", "--out", "o"])
+    joined = parser.parse_args([*command, f"{flag}={value}", flag, "10,0", "--out", "o"])
+    assert getattr(spaced, flag[2:]) == [value, "10,0"] == getattr(joined, flag[2:])
+
+
+def test_a_negative_value_is_applied_and_a_flag_is_still_a_flag(tmp_path, capsys):
+    """`--force -45,0@0.5:` reaches the run as a backward force; other flags with a value take
+    negative lists too (`--direction -90,90`); a flag after a flag that needs a value is still an
+    error naming it."""
+    from robust_ismpc.cli.args import build_parser
+
+    out = tmp_path / "back"
+    assert main(["run", "--force", "-45,0@0.5:", "--push", "0,-30@0.2:0.1", "--duration", "1", "--out", str(out),
+                 "--quiet"]) == 0
+    forces = json.loads((out / "summary.json").read_text())["forces"]
+    assert [(f["fx_n"], f["fy_n"]) for f in forces] == [(-45.0, 0.0), (0.0, -30.0)]
+    assert build_parser().parse_args(["sweep", "--direction", "-90,90", "--impulse-max", "5", "--out", "o"]).direction \
+        == "-90,90"
+    _refused(["run", "--force", "--quiet", "--out", str(tmp_path / "o")], capsys, "--force", "expected one argument")

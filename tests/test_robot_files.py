@@ -34,8 +34,26 @@ def test_a_builtin_robot_is_its_file(op3_copy):
         copy.write_text(text)
         builtin, user = load_robot(name), load_robot(str(copy))
         assert user.params() == builtin.params().with_values(name="renamed")
-        assert (user.foot_friction, user.servo_dynamic_feedforward) == (
-            builtin.foot_friction, builtin.servo_dynamic_feedforward)
+        assert (user.foot_friction, user.servo_dynamic_feedforward, user.physics_step_s) == (
+            builtin.foot_friction, builtin.servo_dynamic_feedforward, builtin.physics_step_s)
+
+
+@pytest.mark.parametrize("value,message", [
+    ('"fast"', "simulation.physics_step_s must be a number"),
+    ("0", "physics_step_s must be a finite number > 0"),
+    ("0.02", "physics_step_s must divide the 0.01 s control period"),
+])
+def test_a_bad_physics_step_is_refused_naming_the_file(op3_copy, value, message):
+    """[simulation] physics_step_s must be a number that divides the control period; the error
+    names the file."""
+    from robust_ismpc.exceptions import ParameterError
+
+    path = op3_copy.parent / "bad_step.toml"
+    assert "[simulation]" not in op3_copy.read_text()
+    path.write_text(op3_copy.read_text() + f"\n[simulation]\nphysics_step_s = {value}\n")
+    with pytest.raises(ParameterError, match=message) as error:
+        load_robot(str(path))
+    assert str(path) in str(error.value)
 
 
 def _main(argv, capsys):

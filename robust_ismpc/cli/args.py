@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 
 from .inputs import MAX_SIM_DURATION_S
@@ -16,11 +17,43 @@ EPILOG_FORCES = """force syntax:
   --force FX,FY            constant force [N] on the CoM (LIP) / torso (MuJoCo) for the whole run
   --force FX,FY@T0:T1      force active from T0 to T1 [s] (T1 empty = until the end)
   --push  FX,FY@T:DUR      push of FX,FY [N] starting at T lasting DUR [s]
+  negative values as written: --force -45,0@3: --push -20,0@2:0.1
 """
+
+#: A command-line word that is a value starting with a minus sign (``-45,0@3:``, ``-.5``,
+#: ``-90,90``), not a flag.
+_NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose errors are one line and exit status 2."""
+    """ArgumentParser whose errors are one line and exit status 2, and whose flags that take one
+    value accept a value that starts with a minus sign (``--force -45,0@3:``).
+
+    argparse takes a word starting with ``-`` for a flag unless it is a plain negative number
+    (``-0.1``), so ``--force -45,0@3:`` failed with "expected one argument" where
+    ``--force=-45,0@3:`` worked. Before parsing, such a word that follows a flag taking one value
+    is joined to it with ``=``.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        self._value_flags: set[str] = set()  # before argparse adds its own flags
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        if action.option_strings and action.nargs is None:  # a flag taking exactly one value
+            self._value_flags.update(action.option_strings)
+        return action
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        words = list(sys.argv[1:] if args is None else args)
+        joined: list[str] = []
+        for word in words:
+            if joined and joined[-1] in self._value_flags and _NEGATIVE_VALUE.match(word):
+                joined[-1] = f"{joined[-1]}={word}"
+            else:
+                joined.append(word)
+        return super().parse_known_args(joined, namespace)
 
     def error(self, message: str) -> None:  # type: ignore[override]
         sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")

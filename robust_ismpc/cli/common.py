@@ -104,12 +104,15 @@ def _spec(args, modules: tuple[str, ...]):
     check_forces_in_run(forces, args.duration)
     requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}
     applied, warnings = limit_command(args.robot, gait_params(args.robot, args.sim), requested)
-    if spec.sim == "mujoco" and spec.whole_body == "servo":
+    if spec.sim == "mujoco":
         from ..sim.loop import soft_servo_warning
         from ..sim.model import load_robot
+        from ..sim.model_checks import physics_step_warning
 
-        soft = soft_servo_warning(load_robot(spec.robot))
-        warnings = warnings + ([soft] if soft else [])
+        robot = load_robot(spec.robot)
+        # servo playback: servos too soft to hold the robot; torque control: a coarse physics step
+        warning = soft_servo_warning(robot) if spec.whole_body == "servo" else physics_step_warning(robot)
+        warnings = warnings + ([warning] if warning else [])
     args.command_requested = {"vx_mps": args.vx, "vy_mps": args.vy, "omega_radps": args.omega}
     args.warnings = warnings
     return replace(spec, command=WalkCommand(applied["--vx"], applied["--vy"], applied["--omega"]))

@@ -47,6 +47,11 @@ def main(argv: list[str] | None = None) -> int:
             return _interrupted(args, "stopped before a run finished; nothing more was written")
         sys.stderr.write(f"ismpc: error: {flag_names(str(exc))}\n")
         return 2
+    except BrokenPipeError:  # the reader of stdout is gone (`ismpc scenarios | head -1`): nothing to say
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 0
     except KeyboardInterrupt:
         if args.interrupts.deferred:
             return _interrupted(args, "stopped at once (second signal); files already written were kept")

@@ -33,9 +33,12 @@ def _robot_init(args) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     draft = draft_robot(args.model, args.left_foot, args.right_foot, args.name)
     atomic_write_bytes(out, robot_file_text(draft, out).encode())
-    print(f"{draft.name}: feet {draft.left_foot} / {draft.right_foot}, sole {100 * draft.sole_length_m:.1f} x "
-          f"{100 * draft.sole_width_m:.1f} cm, {len(draft.leg_joints)} leg joints, standing CoM "
-          f"{draft.com_height_m:.3f} m, feet {draft.foot_spacing_m:.3f} m apart")
+    print(f"{draft.name}: {draft.mass_kg:.2f} kg, feet {draft.left_foot} / {draft.right_foot}, sole "
+          f"{100 * draft.sole_length_m:.1f} x {100 * draft.sole_width_m:.1f} cm, {len(draft.leg_joints)} leg joints, "
+          f"standing CoM {draft.com_height_m:.3f} m, feet {draft.foot_spacing_m:.3f} m apart, physics step "
+          f"{1e3 * draft.physics_step_s:g} ms")
+    for side, text in draft.sole_geometry.items():
+        print(f"{side} sole from {text}")
     for note in draft.notes:
         _warn(note)
     if not args.no_calibrate:
@@ -74,9 +77,14 @@ def _robot_check(args) -> int:
     from ..experiments.robot_check import check_robot
     from ..io import atomic_write_json
     from ..robots import robot_reference
+    from ..sim.model import load_robot
+    from ..sim.model_checks import physics_step_warning
 
     robot = robot_reference(args.file)
+    coarse = physics_step_warning(load_robot(robot))  # before the run: the file is checked, and the warning comes first
     out = _open_out(args)
+    if coarse:
+        _warn(coarse)
     report, result = check_robot(robot, walk_s=args.walk_duration, vx_mps=args.vx)
     atomic_write_json(out / "check.json", report)
     _write_run(result, out, title=f"{report['robot_name']}: walk of `ismpc robot check`")

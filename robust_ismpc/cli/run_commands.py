@@ -95,7 +95,7 @@ def _compare_scenario(args) -> int:
         print(_one_line(run_result.summary, labels[label]))
     if args.interrupts.requested:
         return _interrupted(args, f"the runs' finished parts were written to {out}; no comparison")
-    comparison = result.comparison
+    comparison = {**result.comparison, "warnings": []}
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
     names = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
@@ -121,6 +121,7 @@ def cmd_scenarios(args) -> int:
 
 def cmd_compare(args) -> int:
     from ..control.modules import parse_modules
+    from ..experiments.scenarios.compare import compare_results, push_start_s
     from ..io import atomic_write_json
     from ..plotting import plot_comparison
     from ..runs.run import run
@@ -156,15 +157,13 @@ def cmd_compare(args) -> int:
     if args.interrupts.requested:
         return _interrupted(args, f"{', '.join(results)} written to {out} (the last one as far as it ran); "
                             "no comparison")
+    # the schema of a named scenario's comparison.json (compare.comparison_metrics), without a scenario
     nominal, robust = results.values()
-    comparison = {
-        key: {k: r.summary[k] for k in ("fell", "failure", "distance_m", "steps_taken", "qp_infeasible_count",
-                                        "max_zmp_violation_m", "timing_adaptations", "min_time_to_step_s",
-                                        "disturbance_estimate_final", "modules")}
-        for key, r in (("nominal", nominal), ("robust", robust))
-    }
-    comparison["robust_survives_nominal_fails"] = (not robust.summary["fell"]) and nominal.summary["fell"]
-    comparison["warnings"] = list(args.warnings)
+    spec = specs["nominal"]
+    comparison = {"scenario": None, "seed": args.seed, "paper": None, "realised": None,
+                  **compare_results({"nominal": nominal, "robust": robust}, spec.command, push_start_s(spec.forces)),
+                  "expected_outcome": None, "whole_body": nominal.summary["whole_body"],
+                  "warnings": list(args.warnings)}
     atomic_write_json(out / "comparison.json", comparison)
     plot_comparison([r.trace for r in results.values()], list(results), out / "comparison.png",
                     title=f"{args.robot} on {args.sim}: nominal vs robust")

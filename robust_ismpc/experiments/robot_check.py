@@ -18,7 +18,8 @@ from ..robots import RobotSpec
 from ..runs.run import run
 from ..runs.spec import RunResult, RunSpec
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
-from ..sim.model import load_robot
+from ..sim.model import compile_model, load_robot
+from ..sim.model_checks import physics_step_warning
 from ..sim.whole_body.inverse_dynamics import TorqueControlSettings
 
 
@@ -71,13 +72,18 @@ def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,
     the nominal controller for ``walk_s`` after its first step.
 
     ``vx_mps`` defaults to half the forward speed its steps allow. Returns the report (``stand``,
-    ``walk``: fell, failure, distance, steps, infeasible QPs) and the walk's run result.
+    ``walk``: fell, failure, distance, steps, infeasible QPs; ``physics_step_s``, the MuJoCo
+    timestep used; ``warnings``, e.g. a physics step coarse for torque control,
+    :func:`~robust_ismpc.sim.model_checks.physics_step_warning`) and the walk's run result.
     """
     spec = load_robot(robot)
     params = spec.params()
     vx = 0.5 * command_limits(params)["vx_mps"][0] if vx_mps is None else vx_mps
+    coarse = physics_step_warning(spec)
     report = {"robot": robot, "robot_name": spec.name, "mass_kg": round(spec.mass_kg, 3),
-              "com_height_m": round(spec.com_height_m, 3), "stand": stand(spec, stand_s)}
+              "com_height_m": round(spec.com_height_m, 3),
+              "physics_step_s": float(compile_model(spec).opt.timestep),
+              "warnings": [coarse] if coarse else [], "stand": stand(spec, stand_s)}
     start_s = 3.0 * params.T_step_s  # the plan stands two steps and shifts onto a foot in one
     result = run(RunSpec(robot=robot, sim="mujoco", command=WalkCommand(round(vx, 3)),
                          duration_s=math.ceil(start_s + walk_s)))

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.params import RobotParams
+from ..core.params import MpcParams, RobotParams
 from ..exceptions import ParameterError
 from ..validation import check_positive, check_vector
 
@@ -87,6 +87,11 @@ class RobotSpec:
     servo_dynamic_feedforward : bool
         Servo playback only: add the inverse dynamics of the IK motion to the servos' torque
         feedforward (:class:`~robust_ismpc.sim.loop.LoopSettings`).
+    physics_step_s : float or None
+        MuJoCo's timestep [s], replacing the model's own (``<option timestep>``); None keeps the
+        model's. The closed loop takes (control period / physics_step_s) physics steps per control
+        period and the torque control solves its inverse dynamics at each, so it must divide the
+        MPC's default sampling period (0.01 s): 0.002 s for the built-in robots' models.
     """
 
     name: str
@@ -111,11 +116,19 @@ class RobotSpec:
     sole_sites: tuple[tuple[str, str, tuple[float, float, float], tuple[float, float, float, float]], ...] = ()
     foot_friction: float | None = None
     servo_dynamic_feedforward: bool = False
+    physics_step_s: float | None = None
 
     def __post_init__(self) -> None:
         owner = f"RobotSpec[{self.name}]"
         if self.foot_friction is not None:
             check_positive(owner, foot_friction=self.foot_friction)
+        if self.physics_step_s is not None:
+            check_positive(owner, physics_step_s=self.physics_step_s)
+            period = MpcParams().sampling_period_s
+            steps = period / self.physics_step_s
+            if steps < 1.0 - 1e-9 or abs(steps - round(steps)) > 1e-6:
+                raise ParameterError(f"{owner}.physics_step_s must divide the {period:g} s control period "
+                                     f"(0.001, 0.002, 0.005, ...), got {self.physics_step_s!r}")
         if not isinstance(self.servo_dynamic_feedforward, bool):
             raise ParameterError(f"{owner}.servo_dynamic_feedforward must be true or false, "
                                  f"got {self.servo_dynamic_feedforward!r}")

@@ -150,7 +150,8 @@ def run_mujoco_spec(
     Returns
     -------
     RunResult
-        ``summary`` (``report.summarize`` plus ``time_per_tick_ms``, the wall time per phase,
+        ``summary`` (``report.summarize``, with ``physics_step_s`` the MuJoCo timestep the run
+        used, plus ``time_per_tick_ms``, the wall time per phase,
         ``cop_outside_s``, the time the measured CoP spent more than :data:`COP_TOLERANCE_M`
         outside the support polygon, and
         ``render_fps`` with a video) and the trace.
@@ -266,6 +267,7 @@ def run_mujoco_spec(
     meta["fell"] = fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
     meta["mass_kg"] = mass
+    meta["physics_step_s"] = float(sim.model.opt.timestep)
     trace = recorder.finish(controller.plan, meta)
     summary = summarize(trace, fell, failure, duration, wall)
     times = TickTimes(t_meas, t_ctrl, t_ik, t_phys, t_rec, t_render)

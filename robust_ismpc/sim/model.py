@@ -29,13 +29,15 @@ MAX_SOLE_TILT_DEG = 2.0
 
 
 def compile_model(spec: RobotSpec) -> mujoco.MjModel:
-    """The robot's MJCF scene compiled, with its sole sites (cached: copy before mutating)."""
-    return _compile_model(str(spec.model_path), spec.model_path.stat().st_mtime, spec.sole_sites)
+    """The robot's MJCF scene compiled, with its sole sites and its physics step (the robot file's
+    ``physics_step_s``, else the model's own timestep) (cached: copy before mutating)."""
+    return _compile_model(str(spec.model_path), spec.model_path.stat().st_mtime, spec.sole_sites, spec.physics_step_s)
 
 
 def scene_spec(spec: RobotSpec) -> mujoco.MjSpec:
-    """The robot's MJCF scene as an editable :class:`mujoco.MjSpec`, with its sole sites added."""
-    return _scene_spec(str(spec.model_path), spec.sole_sites)
+    """The robot's MJCF scene as an editable :class:`mujoco.MjSpec`, with its sole sites added and
+    its physics step set (as :func:`compile_model`)."""
+    return _scene_spec(str(spec.model_path), spec.sole_sites, spec.physics_step_s)
 
 
 def standing_qpos(spec: RobotSpec, model: mujoco.MjModel) -> np.ndarray:
@@ -78,11 +80,12 @@ def model_cache_dir() -> Path | None:
 MAX_CACHED_FOLDER_FILES = 5000
 
 
-def _source_key(path: str, sites: tuple) -> str | None:
+def _source_key(path: str, sites: tuple, physics_step_s: float | None = None) -> str | None:
     """Digest of what a compiled model depends on: mujoco's version, the scene path, the added
-    sites and the size and time of every file in the scene's folder (includes and meshes);
-    None for a folder of more than :data:`MAX_CACHED_FOLDER_FILES` files."""
-    digest = hashlib.sha256(f"{mujoco.__version__}|{path}|{sites!r}".encode())
+    sites, the physics step set and the size and time of every file in the scene's folder
+    (includes and meshes); None for a folder of more than :data:`MAX_CACHED_FOLDER_FILES` files."""
+    step = "" if physics_step_s is None else f"|timestep={physics_step_s!r}"
+    digest = hashlib.sha256(f"{mujoco.__version__}|{path}|{sites!r}{step}".encode())
     files = 0
     for file in sorted(Path(path).parent.rglob("*")):
         if file.is_file():
@@ -95,13 +98,14 @@ def _source_key(path: str, sites: tuple) -> str | None:
 
 
 @functools.lru_cache(maxsize=8)
-def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
-    """The scene at ``path`` with ``sites`` added, compiled; kept in memory, and on disk in
-    :func:`model_cache_dir` (MJCF compilation takes about a second for a humanoid, reading the
-    binary model a few milliseconds)."""
+def _compile_model(path: str, mtime: float, sites: tuple, physics_step_s: float | None = None) -> mujoco.MjModel:
+    """The scene at ``path`` with ``sites`` added and its timestep replaced by ``physics_step_s``
+    (None: the model's own), compiled; kept in memory, and on disk in :func:`model_cache_dir`
+    (MJCF compilation takes about a second for a humanoid, reading the binary model a few
+    milliseconds)."""
     del mtime  # part of the in-memory cache key only
     folder = model_cache_dir()
-    key = None if folder is None else _source_key(path, sites)
+    key = None if folder is None else _source_key(path, sites, physics_step_s)
     cached = None if folder is None or key is None else folder / f"{key}.mjb"
     if cached is not None and cached.is_file():
         try:
@@ -109,7 +113,10 @@ def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
         except ValueError:
             logger.warning("ignoring an unreadable compiled model %s", cached)
     try:
-        model = mujoco.MjModel.from_xml_path(path) if not sites else _scene_spec(path, sites).compile()
+        if not sites and physics_step_s is None:
+            model = mujoco.MjModel.from_xml_path(path)
+        else:
+            model = _scene_spec(path, sites, physics_step_s).compile()
     except ValueError as exc:
         raise ModelError(f"cannot compile MJCF model {path!r}: {exc}") from None
     if cached is not None:
@@ -123,12 +130,15 @@ def _compile_model(path: str, mtime: float, sites: tuple) -> mujoco.MjModel:
     return model
 
 
-def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
-    """The scene at ``path`` as an MjSpec with ``sites`` ((name, body, pos, quat), ...) added."""
+def _scene_spec(path: str, sites: tuple = (), physics_step_s: float | None = None) -> mujoco.MjSpec:
+    """The scene at ``path`` as an MjSpec with ``sites`` ((name, body, pos, quat), ...) added and
+    the timestep ``physics_step_s`` [s] (None: the model's own)."""
     try:
         spec = mujoco.MjSpec.from_file(path)
     except ValueError as exc:
         raise ModelError(f"cannot read MJCF model {path!r}: {exc}") from None
+    if physics_step_s is not None:
+        spec.option.timestep = physics_step_s
     for name, body_name, pos, quat in sites:
         body = spec.body(body_name)
         if body is None:
@@ -137,10 +147,15 @@ def _scene_spec(path: str, sites: tuple = ()) -> mujoco.MjSpec:
     return spec
 
 
+def floor_geoms(model: mujoco.MjModel) -> list[int]:
+    """The floor: ids of the plane geoms of the world body."""
+    return [g for g in range(model.ngeom)
+            if model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)]
+
+
 def has_floor(model: mujoco.MjModel) -> bool:
     """True if the model has a floor: a plane geom of the world body."""
-    return any(model.geom_bodyid[g] == 0 and int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_PLANE)
-               for g in range(model.ngeom))
+    return bool(floor_geoms(model))
 
 
 def _free_qpos_adr(model: mujoco.MjModel, root_body: str) -> int:

@@ -3,16 +3,23 @@
 :func:`draft_robot` reads what a robot file needs from the model itself:
 
 - the floating base (the body with the free joint, which must be the model's first body);
-- the feet: the two bodies whose collision geometry reaches lowest in the model's first
-  keyframe (or ``qpos0``), one each side of the base; or the bodies the user names;
-- each sole: the points of the foot's collision geometry within :data:`SOLE_TOLERANCE_M` of its
-  lowest point along the foot frame's −z (box corners, sphere and capsule bottoms, cylinder rims,
-  mesh vertices); the sole rectangle is the largest one inside their convex hull, and the hull
-  is kept as the outline when it is larger;
+- the feet: the two feet (a jointed body and the bodies welded to it) whose geometry colliding
+  with the floor reaches lowest in the model's first keyframe (or ``qpos0``), one each side of
+  the base; or the bodies the user names (:mod:`robust_ismpc.sim.soles`);
+- each sole: the points of that floor geometry, whichever body of the foot carries it, within
+  :data:`~robust_ismpc.sim.soles.SOLE_TOLERANCE_M` of its lowest point along the foot frame's −z
+  (box corners, sphere and capsule bottoms, cylinder rims, mesh vertices); the sole rectangle is
+  the largest one inside their convex hull, and the hull is kept as the outline when it is
+  larger. Visual geometry never makes a sole; a foot that has both says which was used;
 - the leg joints: the joints from the base to each foot;
 - a standing posture: whole-body IK with the soles flat on the floor at the keyframe's stance,
   the base level and the CoM over the middle of the soles at :data:`STANDING_HEIGHT_FRACTION`
-  of its height with the keyframe's legs.
+  of its height with the keyframe's legs;
+- the physics step: the model's own timestep, or 2 ms when that is coarse for torque control
+  (:func:`~robust_ismpc.sim.model_checks.drafted_physics_step`);
+- warnings: bodies whose inertia their size cannot hold (placeholders,
+  :func:`~robust_ismpc.sim.model_checks.implausible_inertias`), legs that cannot move their sole
+  in six directions, a standing IK that missed its targets.
 
 :func:`robot_file_text` writes the draft as a commented TOML; the gait values are the size-scaled
 defaults, spelled out.
@@ -30,11 +37,11 @@ import numpy as np
 from ..exceptions import ModelError, ParameterError
 from ..robots.spec import scaled_gait_defaults
 from .model import _compile_model, has_floor
+from .model_checks import drafted_physics_step, implausible_inertias
 from .robot import convex_hull
+from .soles import SOLE_TOLERANCE_M, find_feet, foot_geometry, sole, sole_rotation
 from .whole_body.ik import IkSettings
 
-#: Sole points: geometry within this distance of the foot's lowest point along its −z [m].
-SOLE_TOLERANCE_M = 0.006
 #: The standing CoM height as a fraction of the CoM height with the keyframe's legs (bent knees).
 STANDING_HEIGHT_FRACTION = 0.92
 #: The smallest sole side accepted [m]; less means a foot frame that is not parallel to its sole.
@@ -61,7 +68,17 @@ class RobotDraft:
     standing_posture: dict[str, float]
     com_height_m: float
     foot_spacing_m: float
+    mass_kg: float
+    physics_step_s: float
+    model_timestep_s: float
+    sole_geometry: dict[str, str] = field(default_factory=dict)
+    placeholder_bodies: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def physics_step_note(self) -> str | None:
+        """Why the drafted physics step is not the model's own timestep (None when it is)."""
+        return drafted_physics_step(self.model_timestep_s)[1]
 
 
 def _free_body(model: mujoco.MjModel) -> int:
@@ -72,147 +89,6 @@ def _free_body(model: mujoco.MjModel) -> int:
                 raise ModelError(f"the floating base {model.body(body).name!r} must be the model's first body")
             return body
     raise ModelError("the model has no free joint (floating base)")
-
-
-def _collision_geoms(model: mujoco.MjModel, body: int) -> list[int]:
-    """The geoms of ``body`` that touch the floor: colliding ones (else the collision group 3,
-    else all), primitives only when there are any (meshes are mostly the visual shell)."""
-    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]
-    colliding = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
-    chosen = colliding or [g for g in geoms if model.geom_group[g] == 3] or geoms
-    primitives = [g for g in chosen if int(model.geom_type[g]) != int(mujoco.mjtGeom.mjGEOM_MESH)]
-    return primitives or chosen
-
-
-def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, geom: int, down: np.ndarray) -> np.ndarray:
-    """Points of a geom's surface that can be its lowest along ``down`` (world frame), shape (k, 3)."""
-    pos, rot = data.geom_xpos[geom], data.geom_xmat[geom].reshape(3, 3)
-    size = model.geom_size[geom]
-    kind = int(model.geom_type[geom])
-    if kind == int(mujoco.mjtGeom.mjGEOM_BOX):
-        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * size
-        return pos + corners @ rot.T
-    if kind == int(mujoco.mjtGeom.mjGEOM_SPHERE):
-        return (pos + size[0] * down)[None, :]
-    if kind in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)):
-        ends = pos + np.outer([-1.0, 1.0], rot[:, 2] * size[1])
-        if kind == int(mujoco.mjtGeom.mjGEOM_CAPSULE):
-            return ends + size[0] * down
-        angles = np.linspace(0.0, 2 * math.pi, 16, endpoint=False)
-        rim = np.outer(np.cos(angles), rot[:, 0]) + np.outer(np.sin(angles), rot[:, 1])
-        return (ends[:, None, :] + size[0] * rim[None, :, :]).reshape(-1, 3)
-    if kind == int(mujoco.mjtGeom.mjGEOM_MESH):
-        mesh = model.geom_dataid[geom]
-        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        return pos + model.mesh_vert[start:start + count] @ rot.T
-    return (pos + model.geom_rbound[geom] * down)[None, :]
-
-
-def _body_points(model, data, body: int, down: np.ndarray) -> np.ndarray:
-    geoms = _collision_geoms(model, body)
-    if not geoms:
-        return np.zeros((0, 3))
-    return np.vstack([_geom_points(model, data, g, down) for g in geoms])
-
-
-def _find_feet(model, data, root: int) -> tuple[int, int]:
-    """The lowest body on each side of the root (left: +y of the root frame)."""
-    root_rot = data.xmat[root].reshape(3, 3)
-    down = np.array([0.0, 0.0, -1.0])
-    lowest: dict[int, tuple[float, int]] = {}
-    for body in range(2, model.nbody):
-        points = _body_points(model, data, body, down)
-        if len(points) == 0:
-            continue
-        side = 1 if (root_rot.T @ (data.xpos[body] - data.xpos[root]))[1] > 0 else -1
-        z = float(points[:, 2].min())
-        if side not in lowest or z < lowest[side][0] - 1e-6:
-            lowest[side] = (z, body)
-    if set(lowest) != {1, -1}:
-        raise ModelError("could not find a foot on each side of the base; name them with --left-foot/--right-foot")
-    return lowest[1][1], lowest[-1][1]
-
-
-def _sole_rotation(model, data, body: int, root: int) -> np.ndarray:
-    """Sole frame axes in the foot body frame, shape (3, 3) (columns x, y, z).
-
-    The axes of the foot's largest box geom if it has one (a box sole), else the body's own,
-    signed and ordered so that z points most nearly up in the keyframe and x most nearly along
-    the base's forward axis.
-    """
-    rot = data.xmat[body].reshape(3, 3)
-    boxes = [g for g in _collision_geoms(model, body) if int(model.geom_type[g]) == int(mujoco.mjtGeom.mjGEOM_BOX)]
-    if boxes:
-        box = max(boxes, key=lambda g: float(np.prod(np.sort(model.geom_size[g])[1:])))
-        axes = rot.T @ data.geom_xmat[box].reshape(3, 3)
-    else:
-        axes = np.eye(3)
-    up = rot.T @ np.array([0.0, 0.0, 1.0])
-    forward = rot.T @ data.xmat[root].reshape(3, 3)[:, 0]
-    iz = int(np.argmax(np.abs(axes.T @ up)))
-    z = axes[:, iz] * np.sign(axes[:, iz] @ up)
-    others = [i for i in range(3) if i != iz]
-    ix = max(others, key=lambda i: abs(axes[:, i] @ forward))
-    x = axes[:, ix] * (np.sign(axes[:, ix] @ forward) or 1.0)
-    rotation = np.column_stack([x, np.cross(z, x), z])
-    return np.where(np.abs(rotation) < 1e-9, 0.0, rotation)
-
-
-def _sole(model, data, body: int, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Sole points (x, y) in the sole frame, the sole origin in the foot body frame, and the
-    sole's length and width [m]; ``rotation`` is the sole frame in the body frame."""
-    rot = data.xmat[body].reshape(3, 3) @ rotation  # sole axes in the world
-    points = (_body_points(model, data, body, -rot[:, 2]) - data.xpos[body]) @ rot  # sole frame
-    if len(points) == 0:
-        raise ModelError(f"foot body {model.body(body).name!r} has no geometry")
-    low = points[:, 2].min()
-    sole = points[points[:, 2] <= low + SOLE_TOLERANCE_M]
-    (x0, y0), (x1, y1) = inscribed_rectangle(sole[:, :2])
-    centre = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1), low])
-    return sole[:, :2] - centre[:2], rotation @ centre, float(x1 - x0), float(y1 - y0)
-
-
-def inscribed_rectangle(points: np.ndarray, samples: int = 201) -> tuple[np.ndarray, np.ndarray]:
-    """The largest axis-aligned rectangle inside the convex hull of planar points.
-
-    Parameters
-    ----------
-    points : ndarray, shape (n, 2)
-        Points (x, y) [m].
-    samples : int
-        Candidate x positions of the rectangle's sides, evenly spaced over the hull.
-
-    Returns
-    -------
-    tuple of ndarray, shape (2,)
-        The lower and upper corners (x, y) [m]. Points along a line give a zero-width rectangle.
-
-    Notes
-    -----
-    Over the hull, the upper boundary y_hi(x) is concave and the lower y_lo(x) convex, so over
-    [x0, x1] the height that fits is min(y_hi(x0), y_hi(x1)) - max(y_lo(x0), y_lo(x1)): the
-    search is over pairs of sampled sides.
-    """
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    hull = convex_hull(pts)
-    if len(hull) < 3 or hi[0] - lo[0] <= 0.0:
-        return lo, hi
-    xs = np.linspace(lo[0], hi[0], samples)
-    y_lo, y_hi = np.full(samples, np.inf), np.full(samples, -np.inf)
-    for a, b in zip(hull, np.roll(hull, -1, axis=0)):
-        if a[0] == b[0]:
-            continue
-        s = (xs - a[0]) / (b[0] - a[0])
-        on = (s >= -1e-12) & (s <= 1 + 1e-12)
-        y = a[1] + np.clip(s, 0.0, 1.0) * (b[1] - a[1])
-        y_lo[on] = np.minimum(y_lo[on], y[on])
-        y_hi[on] = np.maximum(y_hi[on], y[on])
-    top = np.minimum(y_hi[:, None], y_hi[None, :])
-    bottom = np.maximum(y_lo[:, None], y_lo[None, :])
-    area = np.triu((xs[None, :] - xs[:, None]) * np.clip(top - bottom, 0.0, None))
-    i, j = np.unravel_index(int(np.argmax(area)), area.shape)
-    return np.array([xs[i], bottom[i, j]]), np.array([xs[j], top[i, j]])
 
 
 def _leg_joints(model, root: int, foot: int) -> list[str]:
@@ -366,7 +242,7 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
     if (left_foot is None) != (right_foot is None):
         raise ParameterError("give both --left-foot and --right-foot, or neither")
     if left_foot is None:
-        left, right = _find_feet(model, data, root)
+        left, right = find_feet(model, data, root)
     else:
         ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, n) for n in (left_foot, right_foot)]
         for n, i in zip((left_foot, right_foot), ids):
@@ -376,8 +252,8 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
     feet = {"left": left, "right": right}
     offsets, sizes, outlines, rotations = {}, [], [], {}
     for side, body in feet.items():
-        rotations[side] = _sole_rotation(model, data, body, root)
-        points, centre, length, width = _sole(model, data, body, rotations[side])
+        rotations[side] = sole_rotation(model, data, body, root)
+        points, centre, length, width = sole(model, data, body, rotations[side])
         if min(length, width) < MIN_SOLE_SIDE_M:
             raise ModelError(
                 f"{side} foot {model.body(body).name!r}: its lowest geometry along the frame's -z spans only "
@@ -397,6 +273,13 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
         key=lambda result: len(result[3]),
     )
     notes = notes + _leg_mobility_notes(model, q, feet, dict(zip(("left", "right"), chains)))
+    mass = float(model.body_subtreemass[root])
+    placeholders = [b.describe(mass) for b in implausible_inertias(model)]
+    physics_step, step_note = drafted_physics_step(float(model.opt.timestep))
+    if step_note is not None:
+        notes.append(f"{step_note}: the draft sets [simulation] physics_step_s = {physics_step:g}")
+    notes += placeholders
+    geometry = {side: foot_geometry(model, body) for side, body in feet.items()}
     posture = {}
     for j in range(model.njnt):
         if int(model.jnt_type[j]) in _MOVING_JOINTS:
@@ -421,6 +304,11 @@ def draft_robot(model_path: str | Path, left_foot: str | None = None, right_foot
         standing_posture=posture,
         com_height_m=com_height,
         foot_spacing_m=spacing,
+        mass_kg=mass,
+        physics_step_s=physics_step,
+        model_timestep_s=float(model.opt.timestep),
+        sole_geometry={side: f"{model.body(feet[side]).name}: {g.describe(model)}" for side, g in geometry.items()},
+        placeholder_bodies=placeholders,
         notes=notes,
     )
 
@@ -436,6 +324,13 @@ def _polygon_area(points: list[tuple[float, float]]) -> float:
         return 0.0
     xy = np.array(points)
     return 0.5 * abs(float(np.dot(xy[:, 0], np.roll(xy[:, 1], -1)) - np.dot(xy[:, 1], np.roll(xy[:, 0], -1))))
+
+
+def _comment(text: str, prefix: str = "# ") -> list[str]:
+    """``text`` as TOML comment lines of at most 100 characters."""
+    import textwrap
+
+    return textwrap.wrap(text, 100, initial_indent=prefix, subsequent_indent=prefix)
 
 
 def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float | None = None) -> str:
@@ -458,6 +353,13 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
     lines = [
         f"# {draft.name}: drafted by `ismpc robot init` from {draft.model_path.name}. Format: docs/robots.md.",
         "# Check it with `ismpc robot check THIS_FILE --out DIR` before you rely on it.",
+    ]
+    if draft.placeholder_bodies:
+        lines += _comment(f"WARNING: {len(draft.placeholder_bodies)} bodies have an inertia their geometry cannot "
+                          f"hold (placeholders?); their mass counts in the robot's {draft.mass_kg:.2f} kg. Fix them "
+                          "in the model (docs/robots.md):")
+        lines += [line for text in draft.placeholder_bodies for line in _comment(text, "#   ")]
+    lines += [
         f'name = "{draft.name}"',
         model_line,
         f'root_body = "{draft.root_body}"',
@@ -465,8 +367,9 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
         'foot_frame_type = "body"',
         f'left_foot = "{draft.left_foot}"',
         f'right_foot = "{draft.right_foot}"',
-        "# The sole: the largest rectangle inside the foot geometry within 6 mm of its lowest point;",
-        "# the offset is its centre at ground level, in the foot frame.",
+        f"# The sole: the largest rectangle inside the foot's floor-colliding geometry within {1e3 * SOLE_TOLERANCE_M:g} mm of its",
+        "# lowest point; the offset is its centre at ground level, in the foot frame. The geometry used:",
+        *[line for side, text in draft.sole_geometry.items() for line in _comment(f"{side}: {text}", "#   ")],
         f"left_sole_offset_m = {list(draft.sole_offset_m['left'])}",
         f"right_sole_offset_m = {list(draft.sole_offset_m['right'])}",
     ]
@@ -505,4 +408,12 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
     ]
     if swing_cop_gain_s2 is not None:
         lines.append(f"swing_cop_gain_s2 = {swing_cop_gain_s2:.4f}  # measured by `ismpc calibrate`")
+    lines += ["", "# Simulation: MuJoCo's physics step; the torque control solves its inverse dynamics at every one."]
+    step_note = draft.physics_step_note
+    if step_note is None:
+        lines.append(f"# The model's own timestep ({1e3 * draft.model_timestep_s:g} ms), stated.")
+    else:
+        lines += _comment(f"Not the model's own: {step_note}. {1e3 * draft.physics_step_s:g} ms, as the built-in "
+                          "robots.")
+    lines += ["[simulation]", f"physics_step_s = {draft.physics_step_s:g}"]
     return "\n".join(lines) + "\n"

@@ -57,7 +57,10 @@ def path_deviation(trace, command: WalkCommand) -> dict:
     }
 
 
-def _timing_after(trace, t_from: float, window_s: float = 0.5) -> dict:
+def _timing_after(trace, t_from: float | None, window_s: float = 0.5) -> dict:
+    if t_from is None:
+        return dict.fromkeys(("time_to_step_at_hit_s", "first_adaptation_s", "time_to_step_after_hit_s",
+                              "min_time_to_step_after_hit_s", "adaptations_before_hit", "adaptations_after_hit"))
     t = trace["t_s"]
     tts = trace["time_to_step_s"]
     adapted = np.nan_to_num(trace["timing_adapted"]) > 0
@@ -89,51 +92,65 @@ def disturbance_events(run: ScenarioRun) -> list[tuple[str, float]]:
     return events
 
 
-def comparison_metrics(run: ScenarioRun, results: dict[str, RunResult]) -> dict:
-    """``comparison.json`` content for a realised scenario and its two results.
+def push_start_s(forces) -> float | None:
+    """Start of the first push among ``forces`` (ForceWindow: a window that ends) [s]; None without one."""
+    pushes = [f for f in forces if math.isfinite(f.t_end_s)]
+    return min(p.t_start_s for p in pushes) if pushes else None
 
-    Per controller: who fell (and when), path deviation (:func:`path_deviation`), timing
-    adaptations around the disturbance (the hit or the impulse), the disturbance estimate (mean
-    over the last half of the run and final) against the applied mean, and what the scene items
-    did (ball contact window and impulse, bag swing). ``expected_outcome`` applies the scenario's
-    criterion (:func:`expected_outcome`).
+
+def controller_comparison(result: RunResult, command: WalkCommand, event_s: float | None) -> dict:
+    """One controller's entry of ``comparison.json``, the same keys for every comparison.
+
+    Who fell (and when), path deviation (:func:`path_deviation` from ``command``), timing
+    adaptations before and after the disturbance at ``event_s`` (the hit or the push; None
+    entries without one), the disturbance estimate (mean over the last half of the run and final)
+    against the applied mean, and what the scene items did (``scene``, None without any).
     """
-    scenario = run.scenario
-    event_s = None
-    if "ball" in run.details:
-        event_s = run.details["ball"]["hit_s"]
-    else:
-        pushes = [f for f in run.nominal.forces if math.isfinite(f.t_end_s)]
-        if pushes:
-            event_s = min(p.t_start_s for p in pushes)
-    out: dict = {"scenario": scenario.name, "seed": run.seed, "paper": scenario.paper, "realised": run.details}
-    for label, result in results.items():
-        s, trace = result.summary, result.trace
-        t = trace["t_s"]
-        half = t >= 0.5 * (t[-1] if len(t) else 0.0)
-        w_est = trace["disturbance_est_mps2"][half]
-        w_true = trace["disturbance_true_mps2"][half]
-        entry = {
-            "fell": s["fell"], "failure": s["failure"], "duration_s": s["duration_s"],
-            "distance_m": s["distance_m"], "steps_taken": s["steps_taken"],
-            "qp_infeasible_count": s["qp_infeasible_count"], "modules": s["modules"],
-            "timing_adaptations": s["timing_adaptations"], "min_time_to_step_s": s["min_time_to_step_s"],
-            "path_deviation": path_deviation(trace, scenario.command),
-            "disturbance_estimate_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_est, axis=0)] if w_est.size else None,
-            "disturbance_estimate_final_mps2": s["disturbance_estimate_final"],
-            "disturbance_applied_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_true, axis=0)] if w_true.size else None,
-        }
-        if event_s is not None:
-            entry["event_s"] = round(event_s, 4)
-            entry.update(_timing_after(trace, event_s))
-        if "scene" in s:
-            entry["scene"] = s["scene"]
-        out[label] = entry
-    out["expected_outcome"] = expected_outcome(scenario, out)
+    s, trace = result.summary, result.trace
+    t = trace["t_s"]
+    half = t >= 0.5 * (t[-1] if len(t) else 0.0)
+    w_est = trace["disturbance_est_mps2"][half]
+    w_true = trace["disturbance_true_mps2"][half]
+    entry = {
+        "fell": s["fell"], "failure": s["failure"], "duration_s": s["duration_s"],
+        "distance_m": s["distance_m"], "steps_taken": s["steps_taken"],
+        "qp_infeasible_count": s["qp_infeasible_count"], "max_zmp_violation_m": s["max_zmp_violation_m"],
+        "modules": s["modules"],
+        "timing_adaptations": s["timing_adaptations"], "min_time_to_step_s": s["min_time_to_step_s"],
+        "path_deviation": path_deviation(trace, command),
+        "disturbance_estimate_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_est, axis=0)] if w_est.size else None,
+        "disturbance_estimate_final_mps2": s["disturbance_estimate_final"],
+        "disturbance_applied_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_true, axis=0)] if w_true.size else None,
+        "event_s": None if event_s is None else round(event_s, 4),
+    }
+    entry.update(_timing_after(trace, event_s))
+    entry["scene"] = s.get("scene")
+    return entry
+
+
+def compare_results(results: dict[str, RunResult], command: WalkCommand, event_s: float | None) -> dict:
+    """What every ``comparison.json`` says about its ``nominal`` and ``robust`` runs: an entry each
+    (:func:`controller_comparison`), ``robust_survives_nominal_fails`` and ``robust_keeps_path``."""
+    out: dict = {label: controller_comparison(result, command, event_s) for label, result in results.items()}
     out["robust_survives_nominal_fails"] = bool(not out["robust"]["fell"] and out["nominal"]["fell"])
     robust = out["robust"]
     out["robust_keeps_path"] = (not robust["fell"] and robust["path_deviation"]["max_m"] is not None
                                 and _keeps_path(robust))
+    return out
+
+
+def comparison_metrics(run: ScenarioRun, results: dict[str, RunResult]) -> dict:
+    """``comparison.json`` content for a realised scenario and its two results.
+
+    The scenario, its seed and realised values, then :func:`compare_results` around the
+    disturbance (the ball's hit, else the first push). ``expected_outcome`` applies the scenario's
+    criterion (:func:`expected_outcome`).
+    """
+    scenario = run.scenario
+    event_s = run.details["ball"]["hit_s"] if "ball" in run.details else push_start_s(run.nominal.forces)
+    out: dict = {"scenario": scenario.name, "seed": run.seed, "paper": scenario.paper, "realised": run.details}
+    out.update(compare_results(results, scenario.command, event_s))
+    out["expected_outcome"] = expected_outcome(scenario, out)
     return out
 
 
