@@ -94,9 +94,9 @@ class _Checked(RobustIsmpcController):
 
 
 def test_fresh_part_never_moves_the_shifted_dcm_out_of_the_feasibility_region():
-    """A 40 N coronal push in single support and a sagittal constant force: whenever the fresh
+    """A 30 N coronal push in single support and a sagittal constant force: whenever the fresh
     estimate enters the target, the target's shifted DCM is within the exact bounds."""
-    forces = [ForceWindow(20.0, 0.0, 3.0), ForceWindow(0.0, 40.0, PUSH_T, PUSH_T + 0.1)]
+    forces = [ForceWindow(20.0, 0.0, 3.0), ForceWindow(0.0, 30.0, PUSH_T, PUSH_T + 0.1)]
     outcome, _, controller = _walk(forces, cls=_Checked)
     assert not outcome.fell
     assert controller.checked > 20

@@ -119,6 +119,53 @@ def test_daqp_solution_is_optimal_and_matches_quadprog(robot, omega):
                 assert p.objective(x1 + d) >= p.objective(x1) - 1e-12
 
 
+
+@pytest.mark.parametrize("omega", [0.0, 0.3])
+@pytest.mark.parametrize("heading_rad", [0.0, 0.7])
+def test_cost_is_velocity_centring_and_footstep_deviation(robot, omega, heading_rad):
+    """For random decisions the QP's objective equals, up to a constant, the cost stated in the
+    world frame: ½‖Ẋ_z‖² + ½γ‖X_z − X_c‖² + ½β‖X_f − X̂_f‖², with X_c the box centres of the plan's
+    footsteps (the free ones where the last optimum put them), on both axes (per-axis problems in
+    a rotated frame, and coupled ones)."""
+    plan = straight_plan(robot, 0.2, omega=omega, duration_s=12.0)
+    if heading_rad:
+        c, s = np.cos(heading_rad), np.sin(heading_rad)
+        R = np.array([[c, -s], [s, c]])
+        plan.pos_m[:] = plan.pos_m @ R.T
+        plan.candidate_pos_m[:] = plan.candidate_pos_m @ R.T
+        plan.yaw_rad[:] += heading_rad
+    mpc = MpcParams()
+    qp = IsmpcQp(robot, mpc)
+    state = _midstep_state(plan, robot)
+    state = MpcState(state.t_s, state.dcm_m, state.zmp_m + np.array([0.004, -0.003]))
+    first_free = qp.horizon_footsteps(plan, state.t_s).first_free
+    plan.pos_m[first_free:] += 0.01  # the last optimum, away from the candidates
+    problems, layout, hf = qp.build(plan, state)
+    assert layout.F > 0 and layout.coupled == (omega != 0.0)
+    free = np.arange(hf.first_free, hf.first_free + layout.F)
+    times = state.t_s + qp.horizon_offsets_s
+    rng = np.random.default_rng(3)
+
+    def stated(u_world, f_world):
+        zmp = state.zmp_m + qp.dt * np.cumsum(u_world, axis=0)
+        off = zmp - plan.centre(times, plan.pos_m)
+        dev = f_world - plan.candidate_pos_m[free]
+        return 0.5 * np.sum(u_world**2) + 0.5 * mpc.zmp_centring_weight * np.sum(off**2) \
+            + 0.5 * mpc.footstep_weight * np.sum(dev**2)
+
+    def objective(u_world, f_world):
+        if layout.coupled:
+            x = np.concatenate([np.concatenate([u_world[:, a], f_world[:, a]]) for a in range(2)])
+            return problems[0].objective(x)
+        u, f = layout.to_frame(u_world), layout.to_frame(f_world)
+        return sum(p.objective(np.concatenate([u[:, a], f[:, a]])) for a, p in enumerate(problems))
+
+    samples = [(0.05 * rng.normal(size=(layout.C, 2)), plan.candidate_pos_m[free] + 0.02 * rng.normal(size=(layout.F, 2)))
+               for _ in range(4)]
+    differences = [stated(u, f) - objective(u, f) for u, f in samples]
+    np.testing.assert_allclose(differences, differences[0], rtol=0, atol=1e-7 * abs(stated(*samples[0])))
+
+
 def test_infeasible_qp_raises_with_problem(robot):
     """A DCM far outside the feasibility region raises InfeasibleMpc carrying the QP."""
     plan = straight_plan(robot, 0.2, duration_s=12.0)

@@ -65,9 +65,9 @@ def test_persistent_lateral_force_fails_nominal_observer_walks_and_leans():
     assert lean == pytest.approx(expected, rel=0.2)
 
 
-@pytest.mark.xfail(strict=True, reason="the robust run falls too: the force starts just before a double "
-                   "support, and the soles may not come closer than a sole width: docs/closed-loop.md")
-@pytest.mark.parametrize("side", [1.0, -1.0])
+@pytest.mark.parametrize("side", [1.0, pytest.param(-1.0, marks=pytest.mark.xfail(
+    strict=True, reason="the robust run falls too: the force starts just before a double support, and the "
+                        "soles may not come closer than a sole width: docs/closed-loop.md"))])
 def test_lateral_force_starting_mid_walk_on_op3_robust_walks_nominal_fails(side):
     """OP3 (3 cm ZMP box): a lateral force of 79 % of m g d_y / (2h), starting while the robot walks,
     turns nominal IS-MPC infeasible and the robust one walks on; at 95 % neither can lean far
@@ -90,10 +90,13 @@ def test_lateral_force_starting_mid_walk_on_op3_robust_walks_nominal_fails(side)
     assert walk(MODULES, 0.95 * static_limit_n).summary["fell"]
 
 
-def _deviation_run(restrict, dmax, seed, duration_s, fix_footsteps, adversarial):
-    """LIP walk with a known mid-range w_m and a deviation |Δw| <= dmax; returns (cycles, infeasible)."""
+def _deviation_run(restrict, dmax, seed, duration_s, fix_footsteps, adversarial, centring=None):
+    """LIP walk with a known mid-range w_m and a deviation |Δw| <= dmax; returns (cycles, infeasible).
+    ``centring``: the MPC's ZMP centring weight (default: MpcParams')."""
     rng = np.random.default_rng(seed)
     mpc = MpcParams(fix_footsteps=fix_footsteps)
+    if centring is not None:
+        mpc = mpc.with_values(zmp_centring_weight=centring)
     modules = ("restriction",) if restrict else ()
     controller = RobustIsmpcController(ROBOT, mpc, modules=modules, delta_max_mps2=dmax if restrict else None)
     left = np.array([0.0, 0.5 * ROBOT.foot_spacing_m])
@@ -129,13 +132,18 @@ def test_restriction_monte_carlo_has_no_infeasible_qp():
     assert total >= 10_000 and infeasible == 0
 
 
-def test_restriction_keeps_feasibility_where_unrestricted_loses_it():
-    """Fixed footsteps, worst-sign deviation of 0.9 Δmax: restricted stays feasible 10 s, unrestricted fails."""
+@pytest.mark.parametrize("centring", [None, 0.0])
+def test_restriction_keeps_feasibility_where_unrestricted_loses_it(centring):
+    """Fixed footsteps, worst-sign deviation of 0.9 Δmax: restricted stays feasible 10 s with the
+    default cost and the paper's; unrestricted, the paper's cost (no ZMP centring, which plans on
+    the boundary) fails. (The guarantee does not depend on the cost; the centring keeps the
+    unrestricted plan off the boundary in this run, so its failure is shown with the paper's.)"""
     dmax = 0.9 * max_tolerable_deviation(min(ROBOT.zmp_box_x_m, ROBOT.zmp_box_y_m), ROBOT.eta, 0.01, 1.0)
-    cycles, count = _deviation_run(True, dmax, 0, 10.0, fix_footsteps=True, adversarial=True)
+    cycles, count = _deviation_run(True, dmax, 0, 10.0, fix_footsteps=True, adversarial=True, centring=centring)
     assert cycles == 1000 and count == 0
-    cycles, count = _deviation_run(False, dmax, 0, 10.0, fix_footsteps=True, adversarial=True)
-    assert cycles < 1000 and count > 0
+    if centring == 0.0:
+        cycles, count = _deviation_run(False, dmax, 0, 10.0, fix_footsteps=True, adversarial=True, centring=0.0)
+        assert cycles < 1000 and count > 0
 
 
 def test_unguaranteeable_delta_max_is_refused():
@@ -316,7 +324,7 @@ def test_a_landed_footstep_moves_to_the_measured_sole_with_the_model():
 
 
 def test_many_shortened_steps_do_not_run_the_plan_out():
-    """g1 LIP, timing alone, 10 N constant forward force from 3 s: dozens of re-timings shorten
+    """g1 LIP, timing alone, 7 N constant forward force from 3 s: dozens of re-timings shorten
     the steps of a 12 s run, pulling the end of the plan earlier; the plan is long enough for
     every step at its shortest, so the run ends by its own outcome, not with a PlanError."""
     mpc = MpcParams()
@@ -325,6 +333,6 @@ def test_many_shortened_steps_do_not_run_the_plan_out():
     shortest_step = timed.sta_params.ss_limits(ROBOT.T_ss_s)[0] + ROBOT.T_ds_s
     assert timed.plan_duration_s(12.0) == pytest.approx(nominal * ROBOT.T_step_s / shortest_step)
     summary = run(RunSpec(robot="g1", modules=("timing",), command=WalkCommand(0.2), duration_s=12.0,
-                          forces=(ForceWindow(10.0, 0.0, 3.0),))).summary
+                          forces=(ForceWindow(7.0, 0.0, 3.0),))).summary
     assert summary["timing_adaptations"] > 20
     assert summary["duration_s"] > 10.0

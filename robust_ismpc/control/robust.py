@@ -77,8 +77,9 @@ class RobustParams:
         True (default): the fresh estimate (without the persistence window) enters the mid-range
         target as far as the shifted DCM stays inside the exact feasibility region of the current
         step timing, on each axis of the support frame, in single support
-        (:mod:`robust_ismpc.estimation.governor`); a persistent force is then compensated without waiting
-        for the persistence window, while a push cannot move the shifted DCM out of the region.
+        (:mod:`robust_ismpc.estimation.governor`), and as far as the QP stays feasible in double
+        support; a persistent force is then compensated without waiting for the persistence
+        window, while a push cannot move the shifted DCM out of the region.
         False: the persistent part only (what the governor adds: docs/robust.md).
     midrange_rate_mps3 : float
         Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
@@ -264,15 +265,20 @@ class RobustIsmpcController(IsmpcController):
         return MpcState(t_s=state.t_s, dcm_m=dcm + self.disturbance_mps2 / self.eta**2, zmp_m=state.zmp_m)
 
     def _disturbance_target(self, t_s: float, dcm_m: np.ndarray, state: MpcState) -> np.ndarray:
-        """Mid-range target (world frame): the persistent part, plus the fresh estimate as far as
-        the governor admits it (single support only, where the feasibility region is known)."""
+        """Mid-range target (world frame). In single support: the persistent part, plus the fresh
+        estimate as far as the governor admits it (the exact feasibility region of the current
+        timing). In double support, where no closed-form region is computed: the fresh estimate,
+        which :meth:`_solve_qp` moves half-way, then all the way, back to the persistent part when
+        the QP is infeasible (the QP itself is the feasibility test there). Standing and starting
+        under a force depend on this: with the persistent part alone the estimate reached the
+        MPC a persistence window late, and the DCM drifted by what the lag let through."""
         persistent = self.persistent_disturbance_mps2
         if not self.robust_params.governor:
             return persistent
         plan = self.plan
         j = plan.step_at(t_s)
         if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9:
-            return persistent
+            return self.fresh_disturbance_mps2
         bx, by, R, origin = self._current_bounds(t_s, j, state, plan.touchdown_s[j] - t_s)
         low, high = interval_unchecked(
             R.T @ (dcm_m - origin), np.array([bx[0], by[0]]), np.array([bx[1], by[1]]), self.eta**2

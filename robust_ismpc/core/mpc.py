@@ -8,8 +8,13 @@ rows are
 * kinematic constraints on each free footstep relative to the previous one;
 * the stability equality with the chosen tail (anticipative by default).
 
-The cost is :math:`\|\dot X_z\|^2 + \beta\|X_f-\hat X_f\|^2`. When every orientation in the
-horizon is zero the two axes are independent and are solved as two QPs.
+The cost is :math:`\tfrac12\|\dot X_z\|^2 + \tfrac12\gamma\|X_z - X_c\|^2 +
+\tfrac12\beta\|X_f-\hat X_f\|^2`, with :math:`X_z - X_c` the ZMP's offset (plus the swing leg's
+CoP offset, when modelled) from its box centre on the ZMP rows. The centres of free footsteps are
+taken where the plan has them (the previous cycle's optimum), so the Hessian does not change with
+the horizon and only the linear term is updated each cycle; the offset's length does not depend
+on the frame. When every orientation in the horizon is zero the two axes are independent and are
+solved as two QPs.
 
 Matrices that do not depend on time (the integrator :math:`\delta L`, the stability
 coefficients, the Hessian) are built once in :class:`IsmpcQp`; each cycle only computes the
@@ -133,6 +138,7 @@ class IsmpcQp:
         self.C, self.P, self.dt = C, P, dt
         self.integrator = dt * np.tril(np.ones((C, C)))  # row i: x_z^{k+i+1} - x_z^k
         self.stab = stability_coefficients(self.eta, dt, C, P, mpc.tail)
+        self.centring = float(mpc.zmp_centring_weight)
         self.horizon_offsets_s = dt * np.arange(1, C + 1)
         self.tail_offsets_s = dt * np.arange(C, P + 1)
         self._preview_offsets_s = dt * np.arange(1, P + 1)  # the horizon's, then the tail's after the shared t_{k+C}
@@ -150,6 +156,7 @@ class IsmpcQp:
         layout = QpLayout(C=C, F=F, coupled=False)
         n = layout.n_axis
         H_axis = np.diag(layout.axis_columns(np.ones(C), np.full(F, self.mpc.footstep_weight)))
+        H_axis[layout.zmp_vel(), layout.zmp_vel()] += self.centring * (self.integrator.T @ self.integrator)
         H_coupled = np.zeros((2 * n, 2 * n))
         coupled = QpLayout(C=C, F=F, coupled=True)
         for axis in range(2):
@@ -244,6 +251,9 @@ class IsmpcQp:
         offset = state.zmp_m[None, :] - centre_fixed  # (C, 2): p_z - centre (known part)
         if zmp_offset_m is not None:
             offset = offset + zmp_offset_m
+        # the centring cost's linear term γ Lᵀ(x_z^k - c), the free footsteps' centres taken where
+        # the plan has them (the last optimum): the Hessian stays the structure's
+        centring_offset = offset - W_free @ plan.pos_m[hf.first_free:hf.first_free + F] if F else offset
         stab_rhs = state.dcm_m - self.stab.zmp_now * state.zmp_m - tail_fixed  # (2,)
         free_idx = np.arange(hf.first_free, hf.first_free + F)
         prev_known = np.zeros((F, 2))
@@ -267,7 +277,9 @@ class IsmpcQp:
         if not coupled:
             if frame_yaw != 0.0:
                 offset, prev_known = layout.to_frame(offset), layout.to_frame(prev_known)
+                centring_offset = layout.to_frame(centring_offset)
                 target, stab_rhs = layout.to_frame(target), layout.to_frame(stab_rhs)
+            centring_g = self.centring * (self.integrator.T @ centring_offset)  # (C, 2)
             A = st.A_axis
             A[:C, layout.footsteps()] = -W_free
             A[-1, layout.footsteps()] = tail_free
@@ -283,7 +295,7 @@ class IsmpcQp:
                     kin_upper[:, axis] + prev_known[:, axis],
                     [stab_rhs[axis]],
                 ])
-                g = layout.axis_columns(np.zeros(C), -beta * target[:, axis])
+                g = layout.axis_columns(centring_g[:, axis], -beta * target[:, axis])
                 problems.append(QpProblem(st.H_axis, g, A, lower, upper, st.equality_axis, tag="xy"[axis],
                                           previous_rows=rows, matrix_version=self._builds))
             return problems, layout, hf
@@ -322,8 +334,10 @@ class IsmpcQp:
             kin_upper[:, 1] + prev_b,
             stab_rhs,
         ])
-        g = layout.both_axes(layout.axis_columns(np.zeros(C), -beta * target[:, 0]),
-                             layout.axis_columns(np.zeros(C), -beta * target[:, 1]))
+        # the centring cost per world axis (a rotation keeps the offset's length)
+        centring_g = self.centring * (self.integrator.T @ centring_offset)
+        g = layout.both_axes(layout.axis_columns(centring_g[:, 0], -beta * target[:, 0]),
+                             layout.axis_columns(centring_g[:, 1], -beta * target[:, 1]))
         problem = QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy", previous_rows=rows)
         return [problem], layout, hf
 

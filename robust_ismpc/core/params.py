@@ -124,6 +124,13 @@ class MpcParams:
         T_p = P δ >= T_c [s]; the anticipative tail covers (T_c, T_p].
     footstep_weight : float
         β, the weight on the deviation of footsteps from their candidates.
+    zmp_centring_weight : float
+        γ [1/s²], the weight on the ZMP's distance from the centre of its box at every sample of
+        the control horizon, against 1 on the ZMP velocity (the cost
+        ½‖Ẋ_z‖² + ½γ‖X_z − X_c‖² + ½β‖X_f − X̂_f‖², :mod:`robust_ismpc.core.mpc`). Without it
+        nothing returns a standing robot's DCM to the middle of its feet: an estimate that lags
+        a persistent force leaves the DCM where the lag put it, and the next lag adds to it.
+        Default 100, the DIAG reference code's value (spec §7.2); 0: the paper's cost.
     tail : str
         ``"anticipative"`` (default), ``"periodic"`` or ``"truncated"``.
     fix_footsteps : bool
@@ -142,6 +149,7 @@ class MpcParams:
     control_horizon_s: float = 1.0
     preview_horizon_s: float = 2.5
     footstep_weight: float = 1e4
+    zmp_centring_weight: float = 100.0
     tail: str = "anticipative"
     fix_footsteps: bool = False
     footstep_freeze_s: float = 0.05
@@ -156,7 +164,8 @@ class MpcParams:
             preview_horizon_s=self.preview_horizon_s,
             footstep_weight=self.footstep_weight,
         )
-        check_nonnegative("MpcParams", footstep_freeze_s=self.footstep_freeze_s)
+        check_nonnegative("MpcParams", footstep_freeze_s=self.footstep_freeze_s,
+                          zmp_centring_weight=self.zmp_centring_weight)
         if self.tail not in ("anticipative", "periodic", "truncated"):
             raise ParameterError(
                 f"MpcParams.tail must be one of anticipative, periodic, truncated; got {self.tail!r}"

@@ -67,6 +67,22 @@ def total_force(windows: Sequence[ForceWindow], t_s: float) -> np.ndarray:
     return f
 
 
+def ramped_force(fx_n: float, fy_n: float, start_s: float, ramp_s: float,
+                 step_s: float = 0.01) -> tuple[ForceWindow, ...]:
+    """A constant force (fx, fy) [N] reached linearly over ``ramp_s`` [s] from ``start_s`` [s], as
+    stairs of ``step_s`` (one control period by default: each period sees one value, as a force
+    sampled by the controller would): windows of (fx, fy)/n from ``start_s + i ramp_s/n`` on,
+    n = ramp_s/step_s. ``ramp_s`` 0 gives the force switched on at ``start_s``.
+    """
+    for name, value in (("ramp_s", ramp_s), ("step_s", step_s)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            raise ParameterError(f"ramped_force: {name} must be a finite number >= 0, got {value!r}")
+    if step_s == 0:
+        raise ParameterError("ramped_force: step_s must be > 0")
+    n = max(1, int(round(ramp_s / step_s)))
+    return tuple(ForceWindow(fx_n / n, fy_n / n, start_s + i * ramp_s / n) for i in range(n))
+
+
 def _numbers(text: str, count: int, what: str, spec: str) -> list[float]:
     parts = text.split(",")
     if len(parts) != count:
