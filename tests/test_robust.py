@@ -336,3 +336,20 @@ def test_many_shortened_steps_do_not_run_the_plan_out():
                           forces=(ForceWindow(7.0, 0.0, 3.0),))).summary
     assert summary["timing_adaptations"] > 20
     assert summary["duration_s"] > 10.0
+
+
+def test_an_adaptation_in_double_support_reports_the_time_to_the_touchdown_it_set():
+    """g1 LIP, timing alone, 7 N forward from 3 s: some re-timings happen in double support (the
+    coming single support); each adapted tick records the time from it to the touchdown it set,
+    which is positive there too (the reference's time to step is 0 in double support), and
+    summary.json's min_time_to_step_s is the least of them."""
+    result = run(RunSpec(robot="g1", modules=("timing",), command=WalkCommand(0.2), duration_s=7.0,
+                         forces=(ForceWindow(7.0, 0.0, 3.0),)))
+    trace, summary = result.trace, result.summary
+    adapted = np.nan_to_num(trace["timing_adapted"]) > 0
+    in_double_support = adapted & (trace["support"] == 0)
+    assert in_double_support.sum() >= 3
+    chosen = trace["adapted_time_to_step_s"][adapted]
+    assert np.all(np.isfinite(chosen)) and np.all(chosen > 0.05)
+    assert np.all(np.isnan(trace["adapted_time_to_step_s"][~adapted]))
+    assert summary["min_time_to_step_s"] == pytest.approx(chosen.min(), abs=1e-4)

@@ -123,15 +123,26 @@ class RobustParams:
 
 @dataclass
 class _TimingRecord:
+    """What the step timing adaptation did. An adaptation is a change of one step's timing: the
+    current single support's touchdown (in single support) or the coming single support's
+    duration (in double support, :meth:`RobustIsmpcController._retime_next_step`); its time to
+    step is the time from now to the touchdown it set."""
+
     adaptations: int = 0
     min_time_to_step_s: float = math.inf
     adapted_this_cycle: bool = False
+    time_to_step_s: float = math.nan  # of this cycle's last adaptation (NaN: none)
     bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
+
+    def new_cycle(self) -> None:
+        self.adapted_this_cycle = False
+        self.time_to_step_s = math.nan
 
     def record(self, time_to_touchdown_s: float) -> None:
         """Count one re-timing this cycle, with the time left to the re-timed touchdown [s]."""
         self.adaptations += 1
         self.adapted_this_cycle = True
+        self.time_to_step_s = float(time_to_touchdown_s)
         self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
 
 
@@ -415,7 +426,7 @@ class RobustIsmpcController(IsmpcController):
         return True
 
     def _adapt(self, state: MpcState) -> None:
-        self.timing.adapted_this_cycle = False
+        self.timing.new_cycle()
         self.info.timing_time_s = 0.0
         if "timing" in self.modules:
             start = time.perf_counter()
@@ -507,6 +518,7 @@ class RobustIsmpcController(IsmpcController):
         return {
             "feasibility_m": self.timing.bounds_world_m,
             "timing_adapted": float(self.timing.adapted_this_cycle),
+            "adapted_time_to_step_s": self.timing.time_to_step_s,
             "observer_ms": 1e3 * self.info.observer_time_s,
             "timing_ms": 1e3 * self.info.timing_time_s,
         }

@@ -48,9 +48,9 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
     steps_taken = int(np.count_nonzero(touchdowns <= duration_s + 1e-9))
     infeasible = trace["infeasible"]
     adapted = trace["timing_adapted"]
-    tts = trace["time_to_step_s"]
-    adapted_mask = np.nan_to_num(adapted) > 0
-    min_tts = float(np.min(tts[adapted_mask])) if adapted_mask.any() else None
+    adapted_tts = trace["adapted_time_to_step_s"]
+    adapted_mask = (np.nan_to_num(adapted) > 0) & np.isfinite(adapted_tts)
+    min_tts = float(np.min(adapted_tts[adapted_mask])) if adapted_mask.any() else None
     w_est = trace["disturbance_est_mps2"]
     violation = trace["zmp_violation_m"]
     summary = {

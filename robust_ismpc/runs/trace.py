@@ -36,6 +36,7 @@ CHANNELS: dict[str, tuple[int, ...]] = {
     "feasibility_m": (4,),  # x_min, x_max, y_min, y_max of the DCM feasibility region
     "infeasible": (),
     "timing_adapted": (),
+    "adapted_time_to_step_s": (),  # time from the tick to the touchdown an adaptation set; NaN without one
     "observer_ms": (),
     "timing_ms": (),
     "build_ms": (),

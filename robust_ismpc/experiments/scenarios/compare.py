@@ -63,6 +63,7 @@ def _timing_after(trace, t_from: float | None, window_s: float = 0.5) -> dict:
                               "min_time_to_step_after_hit_s", "adaptations_before_hit", "adaptations_after_hit"))
     t = trace["t_s"]
     tts = trace["time_to_step_s"]
+    adapted_tts = trace["adapted_time_to_step_s"]  # to the touchdown each adaptation set
     adapted = np.nan_to_num(trace["timing_adapted"]) > 0
     mask = (t >= t_from - 1e-9) & (t <= t_from + window_s)
     first = np.flatnonzero(mask & adapted)
@@ -70,8 +71,8 @@ def _timing_after(trace, t_from: float | None, window_s: float = 0.5) -> dict:
     return {
         "time_to_step_at_hit_s": None if not planned.size else round(float(tts[planned[0]]), 4),
         "first_adaptation_s": None if not first.size else round(float(t[first[0]]), 4),
-        "time_to_step_after_hit_s": None if not first.size else round(float(tts[first[0]]), 4),
-        "min_time_to_step_after_hit_s": None if not first.size else round(float(np.min(tts[first])), 4),
+        "time_to_step_after_hit_s": None if not first.size else round(float(adapted_tts[first[0]]), 4),
+        "min_time_to_step_after_hit_s": None if not first.size else round(float(np.nanmin(adapted_tts[first])), 4),
         "adaptations_before_hit": int(np.count_nonzero(adapted & (t < t_from - 1e-9))),
         "adaptations_after_hit": int(np.count_nonzero(adapted & (t >= t_from - 1e-9))),
     }
