@@ -38,7 +38,7 @@ def test_zmp_rows_measure_zmp_minus_box_centre(robot):
     rng = np.random.default_rng(0)
     u = 0.05 * rng.normal(size=layout.C)
     f = plan.candidate_pos_m[hf.first_free : hf.first_free + layout.F, 0] + 0.01 * rng.normal(size=layout.F)
-    z = np.concatenate([u, f])
+    z = np.concatenate([np.linalg.solve(qp.zmp_vel_basis, u), f])  # the QP's ZMP variables y: u = basis @ y
     A, lower = problems[0].A, problems[0].lower
     row_value = A[: layout.C] @ z
     # lower = -d/2 - offset  =>  offset = -d/2 - lower
@@ -153,12 +153,13 @@ def test_cost_is_velocity_centring_and_footstep_deviation(robot, omega, heading_
         return 0.5 * np.sum(u_world**2) + 0.5 * mpc.zmp_centring_weight * np.sum(off**2) \
             + 0.5 * mpc.footstep_weight * np.sum(dev**2)
 
-    def objective(u_world, f_world):
+    def objective(u_world, f_world):  # the QP's ZMP variables are y, with Ẋ_z = basis @ y
         if layout.coupled:
-            x = np.concatenate([np.concatenate([u_world[:, a], f_world[:, a]]) for a in range(2)])
+            y = np.linalg.solve(qp.zmp_vel_basis, u_world)
+            x = np.concatenate([np.concatenate([y[:, a], f_world[:, a]]) for a in range(2)])
             return problems[0].objective(x)
-        u, f = layout.to_frame(u_world), layout.to_frame(f_world)
-        return sum(p.objective(np.concatenate([u[:, a], f[:, a]])) for a, p in enumerate(problems))
+        y, f = np.linalg.solve(qp.zmp_vel_basis, layout.to_frame(u_world)), layout.to_frame(f_world)
+        return sum(p.objective(np.concatenate([y[:, a], f[:, a]])) for a, p in enumerate(problems))
 
     samples = [(0.05 * rng.normal(size=(layout.C, 2)), plan.candidate_pos_m[free] + 0.02 * rng.normal(size=(layout.F, 2)))
                for _ in range(4)]

@@ -1,7 +1,8 @@
 """The one place that knows the order of the IS-MPC decision vector and constraint rows.
 
 Per axis the decision vector is ``(Ẋ_z (C), X_f (F))``: the ZMP velocities over the control
-horizon, then the free footstep coordinates. When the footstep orientations couple the axes
+horizon (in the coordinates y = U Ẋ_z that make their cost the identity,
+:attr:`robust_ismpc.core.mpc.IsmpcQp.zmp_vel_basis`), then the free footstep coordinates. When the footstep orientations couple the axes
 the two per-axis vectors are stacked, x first: ``(Ẋ_z, X_f, Ẏ_z, Y_f)`` (spec §7.1).
 :mod:`robust_ismpc.core.mpc` assembles its matrices and reads its solutions only through
 :class:`QpLayout`.
