@@ -16,9 +16,8 @@ the horizon and only the linear term is updated each cycle; the offset's length 
 on the frame. The ZMP-velocity block of that Hessian, :math:`I + \gamma L^TL = U^TU`, is dense;
 the QP is posed in :math:`y = U\dot X_z`, where it is the identity, so that the solver's
 per-cycle update of the rows (it works with the rows times the inverse Hessian factor) stays a
-scaling, as with the paper's diagonal cost (a dense block made the cycle 1.3-1.4x slower at
-C = 100 and 2.2x at C = 200). When every orientation in the horizon is zero the two axes are independent and are
-solved as two QPs.
+scaling, as with the paper's diagonal cost. When every orientation in the horizon is zero the two
+axes are independent and are solved as two QPs.
 
 Matrices that do not depend on time (the integrator :math:`\delta L`, the stability
 coefficients, the Hessian) are built once in :class:`IsmpcQp`; each cycle only computes the
@@ -263,9 +262,11 @@ class IsmpcQp:
         offset = state.zmp_m[None, :] - centre_fixed  # (C, 2): p_z - centre (known part)
         if zmp_offset_m is not None:
             offset = offset + zmp_offset_m
-        # the centring cost's linear term γ Lᵀ(x_z^k - c), the free footsteps' centres taken where
-        # the plan has them (the last optimum): the Hessian stays the structure's
+        # the centring cost's linear term (in y), γ U⁻ᵀLᵀ(x_z^k - c), the free footsteps' centres
+        # taken where the plan has them (the last optimum): the Hessian stays the structure's.
+        # Per world axis; a rotation of both axes commutes with it (the offset's length is kept).
         centring_offset = offset - W_free @ plan.pos_m[hf.first_free:hf.first_free + F] if F else offset
+        centring_g = self._zmp_rows.T @ (self.centring * centring_offset)  # (C, 2)
         stab_rhs = state.dcm_m - self.stab.zmp_now * state.zmp_m - tail_fixed  # (2,)
         free_idx = np.arange(hf.first_free, hf.first_free + F)
         prev_known = np.zeros((F, 2))
@@ -289,9 +290,8 @@ class IsmpcQp:
         if not coupled:
             if frame_yaw != 0.0:
                 offset, prev_known = layout.to_frame(offset), layout.to_frame(prev_known)
-                centring_offset = layout.to_frame(centring_offset)
+                centring_g = layout.to_frame(centring_g)
                 target, stab_rhs = layout.to_frame(target), layout.to_frame(stab_rhs)
-            centring_g = self._zmp_rows.T @ (self.centring * centring_offset)  # (C, 2), in y
             A = st.A_axis
             A[:C, layout.footsteps()] = -W_free
             A[-1, layout.footsteps()] = tail_free
@@ -346,8 +346,6 @@ class IsmpcQp:
             kin_upper[:, 1] + prev_b,
             stab_rhs,
         ])
-        # the centring cost per world axis (a rotation keeps the offset's length)
-        centring_g = self._zmp_rows.T @ (self.centring * centring_offset)
         g = layout.both_axes(layout.axis_columns(centring_g[:, 0], -beta * target[:, 0]),
                              layout.axis_columns(centring_g[:, 1], -beta * target[:, 1]))
         problem = QpProblem(st.H_coupled, g, A, lower, upper, st.equality_coupled, tag="xy", previous_rows=rows)
