@@ -62,6 +62,46 @@ def test_retime_shifts_later_steps_and_keeps_durations(plan):
         plan.retime_touchdown(j, plan.ss_start_s[j] - 0.01)
 
 
+@pytest.mark.parametrize("progress", [None, 0.0, 0.4])
+def test_retime_start_keeps_the_box_and_shifts_the_walk(plan, progress):
+    """Bringing the first single support forward, from the stance on the midpoint (None) or from
+    inside the initial double support (its progress 0 or 0.4 at t): the ZMP box at t (centre and
+    half sides) is where it was, the initial double support ends at the new start, every later
+    step start moves by the same shift and every later duration is kept."""
+    td1, tds1 = float(plan.touchdown_s[1]), float(plan.T_ds_s[1])
+    t = 0.5 * td1 if progress is None else td1 + progress * tds1
+    new_start = t + 0.35 * (plan.ss_start_s[2] - t)
+    box_before = plan.box_at(t)
+    starts, T_ss, T_ds = plan.ss_start_s.copy(), plan.T_ss_s.copy(), plan.T_ds_s.copy()
+    shift = plan.retime_start(t, new_start)
+    assert shift == pytest.approx(new_start - starts[2])
+    np.testing.assert_allclose(plan.ss_start_s[2:], starts[2:] + shift)
+    np.testing.assert_array_equal(plan.T_ss_s[2:], T_ss[2:])
+    np.testing.assert_array_equal(plan.T_ds_s[2:], T_ds[2:])
+    assert plan.touchdown_s[1] + plan.T_ds_s[1] == pytest.approx(new_start)
+    assert plan.T_ds_s[1] <= tds1 + 1e-12
+    for now, then in zip(plan.box_at(t), box_before):
+        np.testing.assert_allclose(now, then, atol=1e-12)
+    plan._check_chained()
+
+
+def test_retime_start_delays_only_before_the_initial_double_support(plan):
+    """A later first single support is possible while the box is still on the midpoint (the
+    stance there lasts longer, the double support keeps its duration); once the double support is
+    under way it is refused, as are times outside the stance and starts not after now."""
+    t2, td1, tds1 = float(plan.ss_start_s[2]), float(plan.touchdown_s[1]), float(plan.T_ds_s[1])
+    shift = plan.retime_start(0.5, t2 + 0.3)
+    assert shift == pytest.approx(0.3)
+    assert plan.touchdown_s[1] == pytest.approx(td1 + 0.3) and plan.T_ds_s[1] == pytest.approx(tds1)
+    during = float(plan.touchdown_s[1]) + 0.5 * tds1
+    with pytest.raises(ParameterError):
+        plan.retime_start(during, float(plan.ss_start_s[2]) + 0.1)
+    with pytest.raises(ParameterError):
+        plan.retime_start(float(plan.ss_start_s[2]) + 0.01, float(plan.ss_start_s[2]) + 0.1)
+    with pytest.raises(ParameterError):
+        plan.retime_start(0.5, 0.5)
+
+
 def test_one_time_queries_match_the_array_queries():
     """step_at on one time and box_at give what the array queries give, on a turning, sideways
     walk, at every sampled time of the plan."""

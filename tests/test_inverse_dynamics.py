@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from mujoco_fixtures import ComShiftController, g1_spec, step_simulation  # noqa: F401  (fixtures)
+from mujoco_fixtures import ComShiftController, g1_spec, op3_spec, step_simulation  # noqa: F401  (fixtures)
 
 from robust_ismpc.core.planner import WalkCommand
 from robust_ismpc.exceptions import ParameterError
@@ -175,3 +175,20 @@ def test_soft_servos_are_reported_for_servo_playback():
     message = soft_servo_warning(replace(op3, mass_kg=3 * op3.mass_kg))
     assert "too soft for servo playback" in message and "--whole-body torque" in message
     assert soft_servo_warning(op3, motor_kp=1.0) is None  # OP3 has no motors
+
+
+def test_the_qp_reads_its_own_models_bodies_when_the_scene_adds_bodies(op3_spec):  # noqa: F811
+    """A payload hung from the right elbow adds bodies to the simulated scene before the legs
+    (body ids shift there); the QP, which runs on a model of the robot alone, must take the
+    soles and the root from that model: the same bodies by name, and the same sole points."""
+    from robust_ismpc.sim.scene import Payload
+
+    bag = Payload(mass_kg=0.01, rope_length_m=0.1, link="r_el_link")
+    sim = MujocoSimulation(op3_spec, settings=LoopSettings(torque_control=TorqueControlSettings()), scene_items=(bag,))
+    qp = sim.inverse_dynamics
+    scene_model, own_model = sim.model, qp.model
+    assert own_model.nbody < scene_model.nbody
+    for side in ("left", "right"):
+        scene_body = scene_model.body(sim.robot.foot_body_id(side)).name
+        assert own_model.body(qp._body[side]).name == scene_body
+    assert own_model.body(qp._root).name == scene_model.body(sim.robot.root_id).name

@@ -124,3 +124,32 @@ def test_links_of_the_docs_resolve(page):
         assert linked.exists(), f"{page}: {target} does not exist"
         if fragment and linked.suffix == ".md":
             assert fragment in _anchors(linked.read_text()), f"{page}: no heading for #{fragment} in {file_part}"
+
+
+def test_a_run_figure_title_states_what_happened_in_the_run(tmp_path, monkeypatch):
+    """The gait figure's title says whether the run fell (and when) or walked (and how long), with
+    its step-timing adaptations and, when the run reports one, its path deviation."""
+    import matplotlib.figure
+
+    from robust_ismpc.plotting.runs import run_outcome
+
+    titles = []
+    original = matplotlib.figure.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        titles.append(fig.axes[0].get_title())
+        return original(fig, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", keep)
+    walked = _walk_trace(10.0)
+    walked.meta.update(fell=False, timing_adaptations=0, path_deviation_m=0.012)
+    fell = _walk_trace(3.4)
+    fell.meta.update(fell=True, timing_adaptations=2)
+    plot_run(walked, tmp_path / "walked.png", title="paper-bag seed 0: robust")
+    plot_run(fell, tmp_path / "fell.png", title="paper-bag seed 0: nominal")
+    assert "walked 10.0 s" in titles[0] and "fell" not in titles[0]
+    assert "0 step-timing adaptations" in titles[0] and "path deviation 1.2 cm" in titles[0]
+    assert "fell at 3.39 s" in titles[1] and "walked" not in titles[1]
+    assert "2 step-timing adaptations" in titles[1] and "path deviation" not in titles[1]
+    assert titles[0].startswith("paper-bag seed 0: robust\n") and titles[1].startswith("paper-bag seed 0: nominal\n")
+    assert run_outcome(fell) in titles[1]

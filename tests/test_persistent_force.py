@@ -46,6 +46,26 @@ def test_nominal_falls_where_robust_stands(fx_n, fy_n):
     assert outcome.fell
 
 
+@pytest.mark.parametrize("fx_n", [20.0, -20.0])
+def test_robust_steps_out_of_its_stance_under_a_force_its_feet_cannot_hold(fx_n):
+    """G1 LIP, --vx 0, 20 N sagittal from t = 0: the DCM offset w/η² with the ZMP box's
+    restriction leaves no standing solution within reach of the planned first step (2.6 s), so
+    the first touchdown is brought forward, and the robot then stands (stepping in place) for
+    10 s. Undisturbed, the start keeps its planned timing."""
+    controller = make_controller(ROBOT, MpcParams(), MODULES)
+    plan = start_walk(controller, WalkCommand(0.0), 10.0)
+    planned = float(plan.touchdown_s[2])
+    outcome, _ = run_lip(controller, 10.0, [ForceWindow(fx_n, 0.0)])
+    assert not outcome.fell, outcome.failure
+    assert plan.touchdown_s[2] < planned - 0.5
+    undisturbed = make_controller(ROBOT, MpcParams(), MODULES)
+    calm = start_walk(undisturbed, WalkCommand(0.0), 4.0)
+    outcome, _ = run_lip(undisturbed, 4.0, [])
+    assert not outcome.fell and calm.touchdown_s[2] == pytest.approx(planned)
+    nominal, _ = _stand([ForceWindow(fx_n, 0.0)], modules=())
+    assert nominal.fell
+
+
 def test_robust_starts_walking_under_a_force_ramped_in_before_the_first_step():
     """G1 LIP at 0.2 m/s, 20 N forward ramped in over 1 s from t = 0.2 s (before the first single
     support at 2.1 s): the walk goes on for 12 s (was infeasible at 2.0 s with 10 N)."""
@@ -55,14 +75,16 @@ def test_robust_starts_walking_under_a_force_ramped_in_before_the_first_step():
 
 
 def test_centring_returns_a_standing_robots_dcm_to_its_feet():
-    """Standing under 15 N ramped in over 1 s: with the ZMP centring cost the ZMP ends within
+    """Standing under 15 N ramped in over 1 s, the start left as planned (no timing module, so
+    the robot cannot step out of its stance): with the ZMP centring cost the ZMP ends within
     1 cm of the centre of the feet; with the paper's cost (γ = 0) the estimate's lag during the
     ramp pushes the DCM to the box edge and the QP turns infeasible."""
     forces = ramped_force(15.0, 0.0, 0.2, 1.0)
-    outcome, trace = _stand(forces, duration_s=6.0)
+    modules = ("observer", "restriction")
+    outcome, trace = _stand(forces, modules=modules, duration_s=6.0)
     assert not outcome.fell, outcome.failure
     assert abs(np.mean(trace["zmp_m"][trace["t_s"] >= 5.0, 0])) < 0.01
-    unrestored, _ = _stand(forces, duration_s=6.0, centring=0.0)
+    unrestored, _ = _stand(forces, modules=modules, duration_s=6.0, centring=0.0)
     assert unrestored.fell and "infeasible" in unrestored.failure
 
 

@@ -118,4 +118,4 @@ def test_a_scenario_runs_on_a_robot_file_of_its_robots_size(op3_copy, tmp_path, 
     code, captured = _main(["compare", "paper-push", "--robot", str(op3_copy), "--out", str(tmp_path / "push")],
                            capsys)
     assert code == 2
-    assert "0.60 m" in captured.err and "0.24 m" in captured.err and len(captured.err.strip().splitlines()) == 1
+    assert "0.60 m" in captured.err and "0.23 m" in captured.err and len(captured.err.strip().splitlines()) == 1

@@ -326,12 +326,13 @@ def test_a_landed_footstep_moves_to_the_measured_sole_with_the_model():
 def test_many_shortened_steps_do_not_run_the_plan_out():
     """g1 LIP, timing alone, 7 N constant forward force from 3 s: dozens of re-timings shorten
     the steps of a 12 s run, pulling the end of the plan earlier; the plan is long enough for
-    every step at its shortest, so the run ends by its own outcome, not with a PlanError."""
+    every step at its shortest (and for a first step delayed by one step), so the run ends by its
+    own outcome, not with a PlanError."""
     mpc = MpcParams()
     nominal = IsmpcController(ROBOT, mpc).plan_duration_s(12.0)
     timed = RobustIsmpcController(ROBOT, mpc, modules=("timing",))
     shortest_step = timed.sta_params.ss_limits(ROBOT.T_ss_s)[0] + ROBOT.T_ds_s
-    assert timed.plan_duration_s(12.0) == pytest.approx(nominal * ROBOT.T_step_s / shortest_step)
+    assert timed.plan_duration_s(12.0) == pytest.approx(nominal * ROBOT.T_step_s / shortest_step + ROBOT.T_step_s)
     summary = run(RunSpec(robot="g1", modules=("timing",), command=WalkCommand(0.2), duration_s=12.0,
                           forces=(ForceWindow(7.0, 0.0, 3.0),))).summary
     assert summary["timing_adaptations"] > 20
@@ -353,3 +354,22 @@ def test_an_adaptation_in_double_support_reports_the_time_to_the_touchdown_it_se
     assert np.all(np.isfinite(chosen)) and np.all(chosen > 0.05)
     assert np.all(np.isnan(trace["adapted_time_to_step_s"][~adapted]))
     assert summary["min_time_to_step_s"] == pytest.approx(chosen.min(), abs=1e-4)
+
+
+@pytest.mark.parametrize("push_s", [0.5, 1.0])
+def test_robust_holds_the_standing_pushes_nominal_holds(push_s):
+    """g1 LIP standing (--vx 0), 0.1 s pushes before the initial double support: 120 N sideways,
+    which nominal IS-MPC survives, robust survives too (the push's low-passed tail outlasts the
+    persistence window, and with no feasible estimate robust plans as nominal does instead of
+    replaying its previous plan); 70 N forward, which nominal does not survive, robust survives by
+    bringing its first step forward."""
+
+    def fell(modules, fx_n, fy_n):
+        spec = RunSpec(robot="g1", modules=modules, command=WalkCommand(0.0), duration_s=5.0,
+                       forces=(ForceWindow(fx_n, fy_n, push_s, push_s + 0.1),))
+        return run(spec).summary["fell"]
+
+    assert not fell((), 0.0, 120.0)
+    assert not fell(MODULES, 0.0, 120.0)
+    assert fell((), 70.0, 0.0)
+    assert not fell(MODULES, 70.0, 0.0)

@@ -13,8 +13,10 @@ from robust_ismpc.cli import main  # noqa: E402
 from robust_ismpc.control.modules import MODULES  # noqa: E402
 from robust_ismpc.exceptions import ParameterError  # noqa: E402
 from robust_ismpc.experiments.scenarios import (
+    HRP4_DART,
     SCENARIOS,
     BallSpec,
+    PaperRobot,
     ScaledForce,
     Scenario,
     Variation,
@@ -50,23 +52,42 @@ def test_invalid_definitions_raise() -> None:
         Scenario(name="x", summary="", paper="", robot="op3", command=get_scenario("paper-bag").command,
                  duration_s=1.0, robust_modules=("teleport",))
     with pytest.raises(ParameterError):
-        ScaledForce(1.0, 0.0, reference_mass_kg=0.0)
+        PaperRobot("x", mass_kg=0.0, com_height_m=0.7, sole_length_m=0.25)
+    with pytest.raises(ParameterError):
+        ScaledForce(1.0, 0.0, paper_robot=40.0)
+    with pytest.raises(ParameterError):
+        ScaledForce(1.0, 0.0, HRP4_DART).window(30.0, 0.0, 0.17)
     with pytest.raises(ParameterError):
         Variation(magnitude_fraction=1.5)
     with pytest.raises(ParameterError):
         BallSpec(release_angle_rad=2.0)
 
 
-def test_masses_and_forces_scale_with_robot_mass() -> None:
-    """Bag, ball and pushes are the paper's values times m_robot / m_paper_robot."""
+def test_masses_scale_with_robot_mass() -> None:
+    """Bag and ball masses are the paper's values times m_robot / m_paper_robot."""
     bag = realise("paper-bag").details
     assert bag["bag"]["mass_kg"] == pytest.approx(0.67 * bag["robot_mass_kg"] / 5.4, rel=1e-3)
     ball = realise("paper-ball").details
     assert ball["ball"]["mass_kg"] == pytest.approx(0.265 * ball["robot_mass_kg"] / 5.4, rel=1e-3)
+
+
+def test_push_forces_keep_the_papers_dimensionless_load() -> None:
+    """paper-push's forces load G1 as the paper's loaded HRP-4: F h / (m g l) (l the half sole) is
+    the paper's 45 N and 85 N on HRP-4 in DART (40.05 kg, CoM 0.71 m, sole 0.25 m), and the
+    constant push is there from t = 0."""
     push = realise("paper-push").details
-    k = push["robot_mass_kg"] / 40.0
-    assert push["forces"][0]["fx_n"] == pytest.approx(45.0 * k, rel=1e-3)
-    assert push["forces"][1]["fy_n"] == pytest.approx(85.0 * k, rel=1e-3)
+    m, h, half_sole = push["robot_mass_kg"], push["robot_com_height_m"], 0.5 * push["robot_sole_length_m"]
+    assert (m, h, half_sole) == pytest.approx((33.34, 0.60, 0.085), rel=2e-3)  # the G1 robot file
+
+    def load(force_n, mass_kg, com_height_m, half_sole_m):
+        return force_n * com_height_m / (mass_kg * 9.81 * half_sole_m)
+
+    constant, impulse = push["forces"]
+    assert load(constant["fx_n"], m, h, half_sole) == pytest.approx(load(45.0, 40.05, 0.71, 0.125), rel=1e-3)
+    assert load(impulse["fy_n"], m, h, half_sole) == pytest.approx(load(85.0, 40.05, 0.71, 0.125), rel=1e-3)
+    assert constant["fy_n"] == 0.0 and impulse["fx_n"] == 0.0
+    assert constant["t_start_s"] == 0.0 and constant["t_end_s"] is None
+    assert impulse["t_end_s"] - impulse["t_start_s"] == pytest.approx(0.1)
 
 
 def test_seed_varies_push_time_and_magnitude() -> None:
@@ -81,6 +102,46 @@ def test_seed_varies_push_time_and_magnitude() -> None:
         assert d == realise("paper-push", seed=seed).details
         seen.add(f["t_start_s"])
     assert len(seen) == 3
+
+
+def test_ball_is_released_from_the_horizontal_on_every_seed() -> None:
+    """paper-ball's rule for the ball's speed: released from the horizontal (0.01 rad below it, for
+    the holding force); the seeds change the impact speed by at most 10 % through the rope length."""
+    base = realise("paper-ball", seed=0).details["ball"]
+    assert base["release_angle_deg"] == pytest.approx(90.0, abs=0.6)
+    assert base["expected_impact_speed_mps"] == pytest.approx(math.sqrt(2 * 9.81 * 0.5), rel=0.01)
+    for seed in (1, 2, 3):
+        ball = realise("paper-ball", seed=seed).details["ball"]
+        assert ball["release_angle_deg"] == base["release_angle_deg"]
+        ratio = ball["expected_impact_speed_mps"] / base["expected_impact_speed_mps"]
+        assert 0.9 - 1e-3 <= ratio <= 1.1 + 1e-3
+        assert ratio == pytest.approx(math.sqrt(ball["rope_length_m"] / base["rope_length_m"]), rel=1e-3)
+
+
+def test_bag_hangs_from_an_arm_along_the_body() -> None:
+    """OP3 stands with its arms hanging along its body: the bag's attachment (the right elbow) is
+    below the shoulder and at most 10 cm from the body's centre line, and no arm geom touches the
+    torso or the legs in the standing posture."""
+    import mujoco
+
+    from robust_ismpc.sim.model import compile_model, load_robot
+    from robust_ismpc.sim.robot import standing_state
+
+    bag = realise("paper-bag").details["bag"]
+    assert bag["link"] == "r_el_link" and bag["lever_m"] <= 0.10
+    spec = load_robot("op3")
+    model = compile_model(spec)
+    data = mujoco.MjData(model)
+    standing_state(spec, model, data)
+    for side in ("l", "r"):
+        shoulder, elbow = data.xpos[model.body(f"{side}_sho_roll_link").id], data.xpos[model.body(f"{side}_el_link").id]
+        assert shoulder[2] - elbow[2] >= 0.08  # the upper arm (9 cm) hangs down
+        arm = {model.body(f"{side}_sho_roll_link").id, model.body(f"{side}_el_link").id}
+        collides = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+        for g in (g for g in collides if model.geom_bodyid[g] in arm):
+            for o in (o for o in collides if model.geom_bodyid[o] not in arm | {0}
+                      and model.body(model.geom_bodyid[o]).name != f"{side}_sho_pitch_link"):
+                assert mujoco.mj_geomDistance(model, data, g, o, 0.05, None) > 0.003
 
 
 def test_pendulum_swing_time_matches_small_angle_limit() -> None:
@@ -157,7 +218,7 @@ def test_compare_whole_body_flag_overrides_the_scenarios(tmp_path) -> None:
 
 
 def test_compare_scenario_rejects_a_robot_of_another_size(tmp_path, capsys) -> None:
-    """paper-ball is an OP3-sized scenario (standing CoM 0.24 m): --robot g1 (0.60 m, more than
+    """paper-ball is an OP3-sized scenario (standing CoM 0.23 m): --robot g1 (0.60 m, more than
     twice as tall) is a usage error that names the sizes."""
     assert main(["compare", "paper-ball", "--robot", "g1", "--out", str(tmp_path / "x")]) == 2
     assert "op3's size" in capsys.readouterr().err
@@ -182,8 +243,8 @@ def test_compare_paper_ball_labels_its_timing_only_robust_run(tmp_path, capsys) 
 def test_paper_ball_shows_the_papers_outcome_on_seed_0() -> None:
     """paper-ball on OP3 (seed 0, 5 s), the paper's Fig. 3: after the hit the nominal QP turns
     infeasible and the robot counts as fallen, the robust one (timing only) cuts the time to step
-    from about 0.25 s to at most 0.15 s and walks on. (Closed loop, measured: both walk, the
-    robust run adapts nothing.)"""
+    from about 0.25 s to at most 0.15 s and walks on. (Closed loop, measured: both walk; the
+    robust run adapts nothing after the hit.)"""
     comparison = run_scenario("paper-ball", seed=0, duration_s=5.0).comparison
     hit_s = comparison["realised"]["ball"]["hit_s"]
     nominal, robust = comparison["nominal"], comparison["robust"]
@@ -220,7 +281,8 @@ def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
 def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
     """paper-push on G1 (torque control), seed 0: the robust robot walks the 10 s through the
     constant push and the sideways impulse at 6 s, the nominal one falls after the impulse.
-    (Closed loop, measured: the robust QP turns infeasible at 4.6 s under the constant push.)"""
+    (Closed loop, measured: the nominal robot falls standing at 1.15 s, the robust QP turns
+    infeasible at 5.45 s under the constant push.)"""
     comparison = run_scenario("paper-push", seed=0).comparison
     assert comparison["whole_body"] == "torque"
     assert not comparison["robust"]["fell"]
@@ -236,8 +298,8 @@ def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:
     assert disturbance_events(ball) == [("ball hit (planned)", ball.details["ball"]["hit_s"])]
     push = realise("paper-push")
     labels, times = zip(*disturbance_events(push))
-    assert labels == ("constant force 38 N", "push 71 N")
-    assert times == (3.0, 6.0)
+    assert labels == ("constant force 30 N", "push 57 N")
+    assert times == (0.0, 6.0)
 
 
 def _outcome(expect: str, nominal: tuple[bool, float], robust: tuple[bool, float]) -> bool:

@@ -99,7 +99,9 @@ def _compare_scenario(args) -> int:
     atomic_write_json(out / "comparison.json", comparison)
     traces = [r.trace for r in result.results.values()]
     names = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
-    plot_comparison(traces, names, out / "comparison.png", title=f"{scenario.name}, seed {args.seed}: {scenario.paper}",
+    held = "held" if comparison["expected_outcome"] else "not held"
+    plot_comparison(traces, names, out / "comparison.png",
+                    title=f"{scenario.name} on {scenario.robot}, seed {args.seed}: the paper's outcome {held}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
     print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "

@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -44,6 +45,10 @@ from .step_timing import StaParams, should_adapt, solve_sta
 #: :meth:`RobustIsmpcController._retime_next_step` tries in double support (within
 #: :meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
 DS_RETIMING_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
+
+#: Largest number of earlier first touchdowns (and of later ones, while the robot still stands on
+#: both feet) that :meth:`RobustIsmpcController._retime_start` tries in one cycle.
+START_RETIMING_TRIES = 8
 
 
 @dataclass(frozen=True)
@@ -124,8 +129,9 @@ class RobustParams:
 @dataclass
 class _TimingRecord:
     """What the step timing adaptation did. An adaptation is a change of one step's timing: the
-    current single support's touchdown (in single support) or the coming single support's
-    duration (in double support, :meth:`RobustIsmpcController._retime_next_step`); its time to
+    current single support's touchdown (in single support), the coming single support's
+    duration (in double support, :meth:`RobustIsmpcController._retime_next_step`) or the first
+    touchdown (in the initial stance, :meth:`RobustIsmpcController._retime_start`); its time to
     step is the time from now to the touchdown it set."""
 
     adaptations: int = 0
@@ -222,6 +228,8 @@ class RobustIsmpcController(IsmpcController):
     def reset(self, plan, com_pos_m, com_vel_mps=None, left_foot_m=None, right_foot_m=None, t_s: float = 0.0) -> None:
         super().reset(plan, com_pos_m, com_vel_mps, left_foot_m, right_foot_m, t_s)
         self.nominal_T_ss_s = plan.T_ss_s.copy()
+        # the first touchdown is delayed by at most one step (plan_duration_s covers it)
+        self._latest_first_touchdown_s = float(plan.touchdown_s[2]) + self.robot.T_step_s
         self.timing = _TimingRecord()
         self._bounds_cache = None
         self._bounds_now = None
@@ -235,13 +243,14 @@ class RobustIsmpcController(IsmpcController):
 
     def plan_duration_s(self, run_s: float) -> float:
         """As the nominal controller's, stretched so that the plan still covers the run when every
-        single support is re-timed to its shortest (re-timing pulls the later steps earlier)."""
+        single support is re-timed to its shortest (re-timing pulls the later steps earlier), and
+        when the first step is delayed by one step (:meth:`_retime_start`)."""
         length = super().plan_duration_s(run_s)
         if "timing" not in self.modules:
             return length
         robot = self.robot
         shortest_step_s = self.sta_params.ss_limits(robot.T_ss_s)[0] + robot.T_ds_s
-        return length * max(1.0, robot.T_step_s / shortest_step_s)
+        return length * max(1.0, robot.T_step_s / shortest_step_s) + robot.T_step_s
 
     @property
     def timing_adaptations(self) -> int:
@@ -280,15 +289,21 @@ class RobustIsmpcController(IsmpcController):
         estimate as far as the governor admits it (the exact feasibility region of the current
         timing). In double support, where no closed-form region is computed: the fresh estimate,
         which :meth:`_solve_qp` moves half-way, then all the way, back to the persistent part when
-        the QP is infeasible (the QP itself is the feasibility test there). Standing and starting
-        under a force depend on this: with the persistent part alone the estimate reached the
-        MPC a persistence window late, and the DCM drifted by what the lag let through."""
+        the QP is infeasible (the QP itself is the feasibility test there). In the initial stance
+        (step 1): the whole estimate ŵ, not the fresh part's decaying share, because no touchdown
+        is coming that would absorb what that share leaves out; when the QP is infeasible the
+        first step is brought forward (:meth:`_retime_start`) before the estimate is moved back.
+        Standing and starting under a force depend on this: with the persistent part alone the
+        estimate reached the MPC a persistence window late, and the DCM drifted by what the lag
+        let through."""
         persistent = self.persistent_disturbance_mps2
         if not self.robust_params.governor:
             return persistent
         plan = self.plan
         j = plan.step_at(t_s)
-        if j < 2 or t_s >= plan.touchdown_s[j] - 1e-9:
+        if j < 2:
+            return self.disturbance_estimate_mps2
+        if t_s >= plan.touchdown_s[j] - 1e-9:
             return self.fresh_disturbance_mps2
         bx, by, R, origin = self._current_bounds(t_s, j, state, plan.touchdown_s[j] - t_s)
         low, high = interval_unchecked(
@@ -441,7 +456,7 @@ class RobustIsmpcController(IsmpcController):
                 raise
             if self._adapt_timing(state, qp_infeasible=True):
                 return super()._solve_qp(state)
-            result = self._retime_next_step(state)
+            result = self._retime_next_step(state) if self.plan.step_at(state.t_s) >= 2 else self._retime_start(state)
             if result is None:
                 raise
             return result
@@ -484,13 +499,78 @@ class RobustIsmpcController(IsmpcController):
         plan.retime_touchdown(k, start + current)
         return None
 
+    def _retime_start(self, state: MpcState) -> MpcPlan | None:
+        """In the initial stance, when the QP is infeasible: move the first touchdown to the
+        nearest one for which the QP is feasible, among at most :data:`START_RETIMING_TRIES`
+        earlier ones between the current one and the earliest and, while the ZMP box is still on
+        the feet's midpoint, as many later ones at the same spacing (nearest first, earlier
+        before later).
+
+        Earlier: the first single support starts earlier first (its double support compressed to
+        no less than ``T_ds_s``), then, once it starts at the earliest, it is shortened down to
+        the step timing's shortest (:meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
+        A robot that does not step can hold a persistent force only while the DCM's offset w/η²
+        fits in its feet; beyond that it must step, and the first footstep is a decision of the
+        MPC like every other one. Later: the stance on both feet lasts longer, which is what a
+        sideways push towards the second support foot needs (the box would otherwise move to the
+        first support foot, away from the DCM). Returns the plan, or None (timing left as it
+        was) if no touchdown is feasible.
+        """
+        plan, t = self.plan, state.t_s
+        current = float(plan.touchdown_s[2])
+        nominal = float(self.nominal_T_ss_s[2])
+        T_ss_min = self.sta_params.ss_limits(nominal)[0]
+        earliest_start = min(t + max(self.robot.T_ds_s, self.dt), float(plan.ss_start_s[2]))
+        earliest = earliest_start + T_ss_min
+        span = max(current - earliest, self.robot.T_step_s)
+        spacing = max(self.dt, round(span / START_RETIMING_TRIES / self.dt) * self.dt)
+        earlier = np.arange(current - spacing, earliest - 1e-9, -spacing)
+        if current - earliest >= self.dt - 1e-9 and (len(earlier) == 0 or earlier[-1] > earliest + 1e-9):
+            earlier = np.append(earlier, earliest)
+        later = np.empty(0)
+        if t < float(plan.touchdown_s[1]) - 1e-9:  # the box is still on the midpoint
+            later = current + spacing * np.arange(1, START_RETIMING_TRIES + 1)
+            later = later[later <= self._latest_first_touchdown_s + 1e-9]
+        touchdowns = [td for pair in itertools.zip_longest(earlier, later) for td in pair if td is not None]
+        saved = (plan.T_ss_s.copy(), plan.T_ds_s.copy(), plan.ss_start_s.copy())
+
+        def restore() -> None:
+            plan.T_ss_s[:], plan.T_ds_s[:], plan.ss_start_s[:] = saved
+
+        for touchdown in touchdowns:
+            start = max(earliest_start, min(float(saved[2][2]), touchdown - min(nominal, float(saved[0][2]))))
+            if touchdown > current:  # a longer stance on the midpoint
+                start = touchdown - float(saved[0][2])
+            if abs(start - float(saved[2][2])) > 1e-9:
+                plan.retime_start(t, start)
+            plan.retime_touchdown(2, touchdown)
+            try:
+                result = super()._solve_qp(state)
+            except InfeasibleMpc:
+                restore()
+                continue
+            except BaseException:
+                restore()
+                raise
+            self.timing.record(touchdown - t)
+            self._log.warning("sta", t, f"first step re-timed: touchdown at {touchdown:.2f} s "
+                                        f"(was {current:.2f} s), single support from {start:.2f} s")
+            return result
+        return None
+
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         """Solve, adapting the timing if infeasible; if still infeasible, retry with w̃ moved
-        half-way, then all the way, to the persistent part of the estimate.
+        half-way, then all the way, to the persistent part of the estimate. When the previous
+        plan has been replayed for ``max_fallback_cycles`` (the next infeasible cycle ends the
+        run), last with w̃ = 0, the disturbance nominal IS-MPC plans with, for this cycle only.
 
         The governor's feasibility bounds are exact for the nominal gait but optimistic close to
         a re-timed touchdown (g1, measured: the QP accepted 2 cm of a 9 cm interval), so w̃ can
-        still be more than the plan absorbs; the persistent part is the safe value.
+        still be more than the plan absorbs; the persistent part is the safer value. It is not
+        always safe: the 30 ms low-pass stretches a 0.1 s push past the persistence window, and
+        then the persistent part holds a push that has ended. Planning with w̃ = 0 at once, in
+        place of the replay, cost the OP3 with a bag and the G1 under a sideways force in MuJoCo
+        (the plan jumps); as the alternative to failing it costs nothing.
         """
         try:
             return self._solve_qp_timed(state)
@@ -499,17 +579,21 @@ class RobustIsmpcController(IsmpcController):
                 raise
             current = self.disturbance_mps2.copy()
             persistent = self.persistent_disturbance_mps2
-            if np.allclose(current, persistent):
-                raise
-            for fraction in (0.5, 1.0):
-                w = current + fraction * (persistent - current)
+            # (w̃, kept for the next cycles): the last resort plans this cycle only, the estimate stays
+            candidates = [(current + 0.5 * (persistent - current), True), (persistent, True)]
+            if self.last_plan is None or self.fallback_cycles >= self.mpc_params.max_fallback_cycles:
+                candidates.append((np.zeros(2), False))  # else the previous plan is replayed
+            for w, kept in candidates:
+                if np.allclose(w, current):
+                    continue
                 retry = MpcState(t_s=state.t_s, dcm_m=state.dcm_m + (w - current) / self.eta**2, zmp_m=state.zmp_m)
                 try:
                     result = self._solve_qp_timed(retry)
                 except InfeasibleMpc:
                     continue
-                self.disturbance_mps2 = w
-                self.midrange.reset(w)
+                if kept:
+                    self.disturbance_mps2 = w
+                    self.midrange.reset(w)
                 self.disturbance_retries += 1
                 return result
             raise

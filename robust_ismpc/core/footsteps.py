@@ -240,6 +240,53 @@ class FootstepPlan:
         self.ss_start_s[j + 1 :] += shift
         return shift
 
+    def retime_start(self, t_s: float, first_ss_start_s: float) -> float:
+        """Move the first single support (step 2's) to start at ``first_ss_start_s``, keeping
+        the ZMP box at ``t_s`` where it is and every later duration.
+
+        ``t_s`` must be in step 1, the initial stance. Before the initial double support (the
+        box sliding from the feet's midpoint to footstep 1) has begun, it keeps its duration if
+        that fits and the stance on the midpoint is shortened or lengthened; if it does not fit,
+        it begins at ``t_s`` and is compressed into the time left. Once under way, its progress
+        at ``t_s`` is kept and the rest runs faster; a later start is then refused.
+
+        Parameters
+        ----------
+        t_s : float
+            Current time [s], in step 1.
+        first_ss_start_s : float
+            New start of the first single support [s], after ``t_s``; not after the current one
+            once the initial double support has begun.
+
+        Returns
+        -------
+        float
+            The shift of every later step start [s].
+        """
+        if self.step_at(float(t_s)) != 1:
+            raise ParameterError(f"time {t_s} s is not in the initial stance (step 1)")
+        start_now = float(self.ss_start_s[2])
+        touchdown = float(self.ss_start_s[1] + self.T_ss_s[1])
+        T_ds = float(self.T_ds_s[1])
+        progress = min(1.0, max(0.0, (t_s - touchdown) / T_ds))
+        if not t_s < first_ss_start_s or (progress > 0.0 and first_ss_start_s > start_now + 1e-12):
+            raise ParameterError(
+                f"first single support at {first_ss_start_s} s must be after {t_s} s, and not after {start_now} s "
+                "once the initial double support is under way"
+            )
+        left_s = first_ss_start_s - t_s
+        if progress == 0.0:  # the box is still on the midpoint
+            new_T_ds = min(T_ds, left_s)
+            new_touchdown = first_ss_start_s - new_T_ds
+        else:
+            new_T_ds = left_s / (1.0 - progress)
+            new_touchdown = t_s - progress * new_T_ds
+        self.T_ss_s[1] = max(0.0, new_touchdown - float(self.ss_start_s[1]))
+        self.T_ds_s[1] = first_ss_start_s - float(self.ss_start_s[1]) - self.T_ss_s[1]
+        shift = float(first_ss_start_s - start_now)
+        self.ss_start_s[2:] += shift
+        return shift
+
     def foot_before(self, j: int) -> int:
         """Index of the footstep that the swing foot of step ``j`` lifts off from.
 

@@ -88,7 +88,28 @@ def _measured_footprints(ax, trace: Trace, done: np.ndarray, corners: np.ndarray
         first = False
 
 
+def run_outcome(trace: Trace) -> str:
+    """What happened in a run, for its figure's title.
+
+    ``fell at T s`` or ``walked T s`` (T the end of the trace), the number of step-timing
+    adaptations (``meta["timing_adaptations"]``, else counted in the trace), and the path deviation
+    when the run's ``meta["path_deviation_m"]`` gives one (in cm).
+    """
+    t = trace["t_s"]
+    t_end = float(t[-1]) if len(t) else 0.0
+    parts = [f"fell at {t_end:.2f} s" if trace.meta.get("fell") else f"walked {t_end:.1f} s"]
+    adaptations = trace.meta.get("timing_adaptations")
+    if adaptations is None:
+        adaptations = int(np.count_nonzero(np.nan_to_num(trace["timing_adapted"]) > 0))
+    parts.append(f"{adaptations} step-timing adaptation{'' if adaptations == 1 else 's'}")
+    deviation = trace.meta.get("path_deviation_m")
+    if deviation is not None:
+        parts.append(f"path deviation {100.0 * deviation:.1f} cm")
+    return ", ".join(parts)
+
+
 def _draw_run(axes, trace: Trace, title: str) -> None:
+    title = f"{title}\n{run_outcome(trace)}"
     t_start, t_end = detail_window(trace)
     if len(trace) and t_start > trace["t_s"][0]:
         title = f"{title} (last {t_end - t_start:.0f} s of {t_end:.0f} s)"
@@ -101,8 +122,7 @@ def _draw_run(axes, trace: Trace, title: str) -> None:
     top.set_aspect("equal", adjustable="datalim")
     top.set_xlabel("x [m]")
     top.set_ylabel("y [m]")
-    fell = trace.meta.get("fell")
-    top.set_title(f"{title}" + (" - FELL" if fell else ""))
+    top.set_title(title, fontsize=9)
     top.legend(loc="best", fontsize=7)
     half = trace["box_half_m"]
     if not np.isfinite(half).any():
@@ -160,7 +180,8 @@ def _draw_overview(ax, trace: Trace, t_start: float) -> None:
 
 def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     """Write the gait figure of one run: top view; x, y over time with ZMP bounds, DCM and
-    feasibility region; applied and estimated disturbance. A run longer than
+    feasibility region; applied and estimated disturbance. The title is ``title`` (default: robot
+    / simulator / controller) followed by what happened (:func:`run_outcome`). A run longer than
     :data:`LONG_RUN_S` is drawn over its last :data:`DETAIL_S` seconds, with the CoM of the whole
     run (decimated) in an extra panel."""
     plt = pyplot()
@@ -186,6 +207,8 @@ def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
 def plot_comparison(traces: Sequence[Trace], labels: Sequence[str], path: str | Path, title: str = "",
                     events: Sequence[tuple[str, float]] = ()) -> Path:
     """Side-by-side gait figures of several runs on the same disturbances (one column each).
+
+    Each column is titled with its label and what happened in its run (:func:`run_outcome`).
 
     ``events`` are (label, time [s]) pairs, e.g. a ball hit or the start of a push, drawn as
     vertical lines on every time axis.

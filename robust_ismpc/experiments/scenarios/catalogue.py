@@ -18,15 +18,59 @@ from ...validation import check_nonnegative, check_number, check_positive
 
 
 @dataclass(frozen=True)
+class PaperRobot:
+    """The robot of a paper experiment, as far as a disturbance's scaling needs it.
+
+    Attributes
+    ----------
+    name : str
+        Name and where it ran (for documentation and ``details``).
+    mass_kg : float
+        Total mass [kg].
+    com_height_m : float
+        CoM height of the walking posture [m].
+    sole_length_m : float
+        Length of one sole [m].
+    """
+
+    name: str
+    mass_kg: float
+    com_height_m: float
+    sole_length_m: float
+
+    def __post_init__(self) -> None:
+        check_positive("PaperRobot", mass_kg=self.mass_kg, com_height_m=self.com_height_m,
+                       sole_length_m=self.sole_length_m)
+
+
+#: HRP-4 as in the paper's DART simulation (the paper-push experiment): the DIAG URDF's mass
+#: (40.05 kg), the robust IS-MPC C++ code's CoM height (0.71 m) and the URDF's sole collision box
+#: (0.25 x 0.13 m); research spec §15.3 and §16.1 (docs/scenarios.md).
+HRP4_DART = PaperRobot(name="HRP-4 (DART)", mass_kg=40.05, com_height_m=0.71, sole_length_m=0.25)
+
+
+@dataclass(frozen=True)
 class ScaledForce:
-    """A force stated on the paper's robot, applied to the torso after mass scaling.
+    r"""A force stated on the paper's robot, applied to the torso with the same dimensionless load.
+
+    A force :math:`F` on a LIP of mass :math:`m` and CoM height :math:`h` is held, standing or
+    walking, by a ZMP shifted by :math:`F h / (m g)` against it, which must stay inside the sole
+    (half length :math:`\ell`). The scenario keeps the ratio of that shift to the sole the paper's:
+
+    .. math:: \frac{F h}{m g \ell} = \frac{F_p h_p}{m_p g \ell_p}
+              \quad\Rightarrow\quad
+              F = F_p \, \frac{m}{m_p} \, \frac{h_p}{h} \, \frac{\ell}{\ell_p}
+
+    (both components by the same factor, so the force keeps its direction). For a push shorter
+    than :math:`1/\eta` the same factor keeps the DCM jump :math:`F \Delta t / (m \eta)` relative
+    to the sole up to :math:`\sqrt{h_p / h}` (the duration is the paper's).
 
     Attributes
     ----------
     fx_n, fy_n : float
         Force on the paper's robot, world frame [N] (x forward = sagittal, y left = coronal).
-    reference_mass_kg : float
-        Mass of the paper's robot the force was applied to [kg].
+    paper_robot : PaperRobot
+        The robot the paper applied it to.
     t_start_s : float
         Start [s].
     duration_s : float
@@ -37,7 +81,7 @@ class ScaledForce:
 
     fx_n: float
     fy_n: float
-    reference_mass_kg: float
+    paper_robot: PaperRobot
     t_start_s: float = 0.0
     duration_s: float = math.inf
     jitter: bool = False
@@ -45,14 +89,25 @@ class ScaledForce:
     def __post_init__(self) -> None:
         check_number("ScaledForce", fx_n=self.fx_n)
         check_number("ScaledForce", fy_n=self.fy_n)
-        check_positive("ScaledForce", reference_mass_kg=self.reference_mass_kg)
+        if not isinstance(self.paper_robot, PaperRobot):
+            raise ParameterError(f"ScaledForce.paper_robot must be a PaperRobot, got {self.paper_robot!r}")
         check_nonnegative("ScaledForce", t_start_s=self.t_start_s)
         if not (isinstance(self.duration_s, (int, float)) and self.duration_s > 0 and not math.isnan(self.duration_s)):
             raise ParameterError(f"ScaledForce.duration_s must be > 0 (inf allowed), got {self.duration_s!r}")
 
-    def window(self, robot_mass_kg: float, time_shift_s: float = 0.0, magnitude_scale: float = 1.0) -> ForceWindow:
-        """The force on a robot of ``robot_mass_kg`` [kg], shifted and scaled, as a ForceWindow."""
-        k = robot_mass_kg / self.reference_mass_kg * magnitude_scale
+    def factor(self, robot_mass_kg: float, robot_com_height_m: float, robot_sole_length_m: float) -> float:
+        r"""The scale factor :math:`(m/m_p)(h_p/h)(\ell/\ell_p)` onto a robot of the given mass [kg],
+        standing CoM height [m] and sole length [m]."""
+        check_positive("ScaledForce.factor", robot_mass_kg=robot_mass_kg, robot_com_height_m=robot_com_height_m,
+                       robot_sole_length_m=robot_sole_length_m)
+        p = self.paper_robot
+        return (robot_mass_kg / p.mass_kg) * (p.com_height_m / robot_com_height_m) * (robot_sole_length_m / p.sole_length_m)
+
+    def window(self, robot_mass_kg: float, robot_com_height_m: float, robot_sole_length_m: float,
+               time_shift_s: float = 0.0, magnitude_scale: float = 1.0) -> ForceWindow:
+        """The force on a robot of the given mass [kg], CoM height [m] and sole length [m]
+        (:meth:`factor`), shifted [s] and scaled, as a ForceWindow."""
+        k = self.factor(robot_mass_kg, robot_com_height_m, robot_sole_length_m) * magnitude_scale
         start = max(0.0, self.t_start_s + time_shift_s)
         return ForceWindow(k * self.fx_n, k * self.fy_n, start, start + self.duration_s)
 
@@ -125,7 +180,10 @@ class BallSpec:
         Ball radius [m].
     release_angle_rad : float
         Release angle from the vertical [rad]; sets the impact speed
-        ``sqrt(2 g L (cos(contact) - cos(release)))``.
+        ``sqrt(2 g L (cos(contact) - cos(release)))``. Default: the horizontal (the paper gives no
+        speed; a rope pendulum is released at most from there with its rope taut), 0.01 rad below
+        it so that the force holding the ball until its release, ``m g tan(a)``, is finite
+        (0.5 % less speed than from exactly horizontal).
     time_to_step_at_hit_s : float
         Planned remaining single support at the hit [s].
     earliest_hit_s : float
@@ -140,7 +198,7 @@ class BallSpec:
     reference_robot_mass_kg: float = 5.4
     rope_length_m: float = 0.5
     radius_m: float = 0.035
-    release_angle_rad: float = math.radians(60.0)
+    release_angle_rad: float = 0.5 * math.pi - 0.01
     time_to_step_at_hit_s: float = 0.25
     earliest_hit_s: float = 3.0
     hit_height_m: float | None = None
@@ -166,8 +224,8 @@ class Variation:
 
     For seed > 0, a ``numpy.random.default_rng(seed)`` draws a time shift uniform in
     ``±time_s`` and a magnitude factor uniform in ``1 ± magnitude_fraction``, used by every
-    jittered force, the ball (hit time and impact speed through the release angle) and the bag
-    (mass).
+    jittered force, the ball (hit time, and impact speed through the rope length, which scales by
+    the factor squared at the same release angle) and the bag (mass).
 
     Attributes
     ----------
@@ -292,20 +350,18 @@ SCENARIOS: dict[str, Scenario] = {
         ),
         Scenario(
             name="paper-push",
-            summary="G1 (torque control) walks 0.2 m/s under a constant 45 N sagittal push plus an 85 N, 0.1 s "
-            "coronal push (HRP-4 40 kg values, scaled)",
+            summary="G1 (torque control) walks 0.2 m/s under a constant 45 N sagittal push from the start plus an "
+            "85 N, 0.1 s coronal push (HRP-4 values, scaled to the same F h / (m g l))",
             paper="Fig. 4: robust (all modules) survives, timing adapts only right after the impulse; nominal falls",
             robot="g1",
             command=WalkCommand(0.2),
             duration_s=10.0,
             robust_modules=("observer", "restriction", "timing"),
-            # The constant push starts once the robot walks (first single support at 2.6 s): from
-            # a standing start no controller can hold it, not even one that knows the force
-            # exactly (the lean it needs, w/η² = 7.1 cm, exceeds the standing ZMP box, ±4 cm, and
-            # the first step is 2.6 s away; docs/scenarios.md).
+            # "must walk under a constant push": the paper gives no start, so it is there from
+            # t = 0 (a robot that walks under a push has stood under it; docs/scenarios.md).
             forces=(
-                ScaledForce(45.0, 0.0, 40.0, 3.0),
-                ScaledForce(0.0, 85.0, 40.0, 6.0, 0.1, jitter=True),
+                ScaledForce(45.0, 0.0, HRP4_DART, 0.0),
+                ScaledForce(0.0, 85.0, HRP4_DART, 6.0, 0.1, jitter=True),
             ),
             variation=Variation(time_s=0.2, magnitude_fraction=0.1),
         ),

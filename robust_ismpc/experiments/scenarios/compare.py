@@ -242,4 +242,6 @@ def run_scenario(
         results[label] = result
     comparison = comparison_metrics(realised, results)
     comparison["whole_body"] = results["nominal"].summary["whole_body"]
+    for label, result in results.items():  # the figures' titles state it (plotting.run_outcome)
+        result.trace.meta["path_deviation_m"] = comparison[label]["path_deviation"]["max_m"]
     return ScenarioResult(run=realised, results=results, comparison=comparison)

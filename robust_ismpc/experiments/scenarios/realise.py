@@ -125,6 +125,26 @@ def right_arm_end(robot_spec) -> str:
     return model.body(max(ends)[1]).name
 
 
+def _lateral_offset_m(robot_spec, link: str, offset_m) -> float:
+    """Horizontal distance [m] of the point ``offset_m`` (``link`` frame) from the base's sagittal
+    plane in the standing posture: the lever of a load hanging there."""
+    import mujoco
+
+    from ...sim.model import compile_model, frame_id
+    from ...sim.robot import standing_state
+
+    model = compile_model(robot_spec)
+    data = mujoco.MjData(model)
+    standing_state(robot_spec, model, data)
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link)
+    if body < 0:
+        raise ParameterError(f"{robot_spec.name}: no body {link!r} to hang the bag from")
+    root = frame_id(model, "body", robot_spec.root_body, "root")
+    point = data.xpos[body] + data.xmat[body].reshape(3, 3) @ np.asarray(offset_m, float)
+    in_base = data.xmat[root].reshape(3, 3).T @ (point - data.xpos[root])
+    return float(abs(in_base[1]))
+
+
 #: A scenario runs on a robot whose standing CoM height is within this factor of its own robot's.
 SIZE_FACTOR = 2.0
 
@@ -199,15 +219,19 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     robot_spec = load_robot(scenario.robot)
     mass = float(robot_spec.mass_kg)
     shift, scale = scenario.variation.draw(seed)
+    com_height, sole_length = float(robot_spec.com_height_m), float(robot_spec.sole_length_m)
     windows = tuple(
-        f.window(mass, shift if f.jitter else 0.0, scale if f.jitter else 1.0) for f in scenario.forces
+        f.window(mass, com_height, sole_length, shift if f.jitter else 0.0, scale if f.jitter else 1.0)
+        for f in scenario.forces
     ) + tuple(extra_forces)
     base = RunSpec(robot=scenario.robot, sim="mujoco", modules=(), command=scenario.command,
                    duration_s=scenario.duration_s, forces=windows, seed=seed,
                    mpc=mpc)
     details: dict = {
         "scenario": scenario.name, "seed": seed, "robot": scenario.robot, "robot_mass_kg": round(mass, 4),
+        "robot_com_height_m": round(com_height, 4), "robot_sole_length_m": round(sole_length, 4),
         "time_shift_s": round(shift, 4), "magnitude_factor": round(scale, 4),
+        "force_factor": [round(f.factor(mass, com_height, sole_length), 5) for f in scenario.forces],
         "forces": [
             {"fx_n": round(w.fx_n, 4), "fy_n": round(w.fy_n, 4), "t_start_s": round(w.t_start_s, 4),
              "t_end_s": None if math.isinf(w.t_end_s) else round(w.t_end_s, 4)}
@@ -219,17 +243,19 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
         bag = scenario.bag
         bag_mass = bag.reference_mass_kg * mass / bag.reference_robot_mass_kg * scale
         link = bag.link or right_arm_end(robot_spec)
+        lever = _lateral_offset_m(robot_spec, link, bag.attach_offset_m)
         items.append(Payload(mass_kg=bag_mass, rope_length_m=bag.rope_length_m, link=link,
                              attach_offset_m=bag.attach_offset_m, radius_m=bag.radius_m,
                              initial_angle_rad=bag.initial_angle_rad, damping_nms=bag.damping_nms))
-        details["bag"] = {"mass_kg": round(bag_mass, 4), "link": link, "rope_length_m": bag.rope_length_m}
+        details["bag"] = {"mass_kg": round(bag_mass, 4), "link": link, "rope_length_m": bag.rope_length_m,
+                          "lever_m": round(lever, 4)}
     if scenario.ball is not None:
         ball = scenario.ball
         ball_mass = ball.reference_mass_kg * mass / ball.reference_robot_mass_kg
-        # Magnitude variation acts on the impact speed: v ~ sqrt(1 - cos a).
-        target = (1.0 - math.cos(ball.release_angle_rad)) * scale**2
-        release_angle = math.acos(max(-1.0, min(1.0, 1.0 - target)))
-        release_angle = min(release_angle, 0.5 * math.pi - 0.01)
+        # Magnitude variation acts on the impact speed through the rope length (v ~ sqrt(L)), so
+        # the ball is released from the same angle on every seed.
+        release_angle = ball.release_angle_rad
+        L = ball.rope_length_m * scale**2
         _, plan_probe = _reference_com(robot_spec, base, 0.0)
         td = plan_probe.touchdown_s
         js = [j for j in range(2, plan_probe.n_footsteps)
@@ -241,7 +267,6 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
         com_hit, _ = _reference_com(robot_spec, base, hit_s)
         back_dx, hit_z = _torso_back(robot_spec, com_hit, ball.hit_height_m)
         back_x = float(com_hit[0] + back_dx)
-        L = ball.rope_length_m
         pivot = (back_x - ball.radius_m + L * math.sin(ball.contact_angle_rad), float(com_hit[1]),
                  hit_z + L * math.cos(ball.contact_angle_rad))
         swing_s = pendulum_swing_time(L, release_angle, ball.contact_angle_rad)
@@ -252,7 +277,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
                                   release_angle_rad=release_angle, release_s=release_s))
         speed = math.sqrt(2 * GRAVITY_MPS2 * L * (math.cos(ball.contact_angle_rad) - math.cos(release_angle)))
         details["ball"] = {
-            "mass_kg": round(ball_mass, 4), "rope_length_m": L, "radius_m": ball.radius_m,
+            "mass_kg": round(ball_mass, 4), "rope_length_m": round(L, 4), "radius_m": ball.radius_m,
             "release_angle_deg": round(math.degrees(release_angle), 3), "release_s": round(release_s, 4),
             "swing_s": round(swing_s, 4), "hit_s": round(hit_s, 4), "hit_step": j,
             "planned_touchdown_s": round(float(td[j]), 4),

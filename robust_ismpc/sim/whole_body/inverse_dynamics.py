@@ -195,10 +195,10 @@ class InverseDynamicsQp:
         own = ActuatorMap(model, model)  # the same actuators, indexed in the robot's own model
         if own.sim_dof_index.shape != actuators.sim_dof_index.shape:
             raise ParameterError("the simulated scene and the robot model have different actuators")
-        self._body = {s: robot.foot_body_id(s) for s in SIDES}
+        self._body = {s: self.robot.foot_body_id(s) for s in SIDES}  # ids in the QP's own model
         self._half_length = 0.5 * robot.spec.sole_length_m * settings.cop_margin
         self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
-        self._root = robot.root_id
+        self._root = self.robot.root_id
         self._dof = own.sim_dof_index
         self._qpos_index = own.sim_qpos_index
         self._friction_nm = model.dof_frictionloss[self._dof].copy()
