@@ -604,5 +604,7 @@ class RobustIsmpcController(IsmpcController):
             "timing_adapted": float(self.timing.adapted_this_cycle),
             "adapted_time_to_step_s": self.timing.time_to_step_s,
             "observer_ms": 1e3 * self.info.observer_time_s,
+            "disturbance_measured_mps2": (self.observer.estimate_mps2 if self.observer is not None
+                                          else np.full(2, np.nan)),
             "timing_ms": 1e3 * self.info.timing_time_s,
         }
