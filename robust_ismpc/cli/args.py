@@ -11,6 +11,7 @@ import math
 import re
 import sys
 
+from ..robots.sensing import SENSING_PRESETS
 from .inputs import MAX_SIM_DURATION_S
 
 EPILOG_FORCES = """force syntax:
@@ -145,7 +146,10 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
                    help="impulsive push [N] for DUR seconds, repeatable")
     p.add_argument("--delta-max", type=_finite_float("delta-max"), default=None,
                    help="deviation bound Δmax for the ZMP restriction [m/s²] (default: module default)")
-    p.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (0; also of the sensor noise)")
+    p.add_argument("--sensing", default="ideal", choices=tuple(SENSING_PRESETS),
+                   help="what the controller reads: ideal (the simulator's true state, the default) or realistic "
+                        "(noise, bias and 10 ms latency; see docs/closed-loop.md)")
     _add_output_arguments(p, "output directory (summary.json, gait.png, trace.npz)")
     p.add_argument("--video", action="store_true",
                    help="mujoco only: also write an mp4 (offscreen rendering) with time, controller and push arrows")

@@ -99,7 +99,7 @@ def _spec(args, modules: tuple[str, ...]):
     spec = RunSpec(
         robot=args.robot, sim=args.sim, modules=modules, duration_s=args.duration,
         forces=tuple(w for _, _, w in forces), seed=args.seed, delta_max_mps2=args.delta_max,
-        whole_body=args.whole_body,
+        whole_body=args.whole_body, sensing=args.sensing,
     )
     check_forces_in_run(forces, args.duration)
     requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}

@@ -213,7 +213,9 @@ class RobustIsmpcController(IsmpcController):
         self.observer: DisturbanceEstimator | None = None
         self.midrange: MidrangeFilter | None = None
         if "observer" in self.modules:
-            self.observer = DisturbanceEstimator(params.disturbance_time_constant_s)
+            noise = self.estimator.params
+            self.observer = DisturbanceEstimator(params.disturbance_time_constant_s, self.dt,
+                                                 noise.sensor_vel_noise_mps, noise.sensor_contact_acc_noise_mps2)
             self.midrange = MidrangeFilter(MidrangeParams(max_change_mps2=params.midrange_rate_mps3 * self.dt))
             self.persistence = PersistenceFilter(max(1, int(round(params.persistence_s / self.dt))))
             eta_t = self.eta * params.transient_time_constant_s

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..core.lip import discretise
 from ..exceptions import ParameterError
-from ..validation import check_nonnegative
+from ..validation import check_nonnegative, check_positive
 
 
 @dataclass(frozen=True)
@@ -55,15 +55,25 @@ class EstimatorParams:
     acc_noise_mps2 : float
         σ_a, standard deviation of the CoM acceleration the model does not predict, per sample
         [m/s²]. Must be > 0 when a measurement noise is.
+    sensor_vel_noise_mps : float
+        Noise of the CoM velocity sensor alone [m/s], per axis and sample: what the disturbance
+        filter (:class:`DisturbanceEstimator`, which uses the measured contact force rather than
+        the LIP's prediction) must average out.
+    sensor_contact_acc_noise_mps2 : float
+        Noise of the measured contact force per unit mass [m/s²], per axis and sample.
     """
 
     com_pos_noise_m: float = 0.0
     com_vel_noise_mps: float = 0.0
     acc_noise_mps2: float = 1.0
+    sensor_vel_noise_mps: float = 0.0
+    sensor_contact_acc_noise_mps2: float = 0.0
 
     def __post_init__(self) -> None:
         check_nonnegative("EstimatorParams", com_pos_noise_m=self.com_pos_noise_m,
-                          com_vel_noise_mps=self.com_vel_noise_mps, acc_noise_mps2=self.acc_noise_mps2)
+                          com_vel_noise_mps=self.com_vel_noise_mps, acc_noise_mps2=self.acc_noise_mps2,
+                          sensor_vel_noise_mps=self.sensor_vel_noise_mps,
+                          sensor_contact_acc_noise_mps2=self.sensor_contact_acc_noise_mps2)
         if self.acc_noise_mps2 == 0 and (self.com_pos_noise_m > 0 or self.com_vel_noise_mps > 0):
             raise ParameterError(
                 "EstimatorParams.acc_noise_mps2 must be > 0 when a measurement noise is: a model without "
@@ -150,43 +160,108 @@ class StateEstimator:
         return predicted + self.gain @ innovation
 
 
-class DisturbanceEstimator:
-    r"""The CoM acceleration the contacts do not explain, measured over each control period.
+#: How fast the disturbance estimate's model lets the disturbance change: a random walk of
+#: this many m/s² per second per square root of a sample (σ_w = rate · δ per sample). With the
+#: realistic sensors (3 cm/s, 2 % of the weight) it gives an estimate 63 % of the way to a step in
+#: 0.14 s with 0.08 m/s² of noise (docs/closed-loop.md, "Sensing").
+DISTURBANCE_RATE_MPS3 = 5.0
 
-    Between two measurements :math:`k-1` and :math:`k`, :math:`\delta` apart, Newton's law for the
-    horizontal CoM motion, :math:`m \ddot x_c = f_{xy} + m w`, averaged over the period gives
+
+def disturbance_gain(vel_noise_mps: float, contact_acc_noise_mps2: float, period_s: float,
+                     iterations: int = 10_000, tolerance: float = 1e-12) -> np.ndarray:
+    r"""Steady-state Kalman gain (K_v, K_w), shape (2,), of the disturbance filter.
+
+    Per axis the filter's state is the CoM velocity and the disturbance, :math:`(\dot x_c, w)`:
 
     .. math::
 
-        w_k = \frac{\dot x_c^k - \dot x_c^{k-1}}{\delta} - \bar a_k,
+        \dot x_c^{k} = \dot x_c^{k-1} + \delta\,(\bar a_k + w_{k-1} + \nu_a), \qquad
+        w_k = w_{k-1} + \nu_w,
 
-    with :math:`\bar a_k` the horizontal contact force per unit mass averaged over the period
+    with :math:`\bar a_k` the measured contact acceleration, :math:`\nu_a \sim \mathcal N(0,
+    \sigma_a^2)` its noise, :math:`\nu_w \sim \mathcal N(0, (\rho\delta)^2)` the disturbance's
+    random walk (:data:`DISTURBANCE_RATE_MPS3`), and the measured velocity :math:`y = \dot x_c +
+    \epsilon`, :math:`\epsilon \sim \mathcal N(0, \sigma_v^2)`. Without noise the gain is
+    :math:`(1, 1/\delta)`: the estimate is the velocity's change over the period minus the contact
+    acceleration.
+
+    Parameters
+    ----------
+    vel_noise_mps : float
+        σ_v, noise of the measured CoM velocity [m/s].
+    contact_acc_noise_mps2 : float
+        σ_a, noise of the measured contact acceleration [m/s²].
+    period_s : float
+        δ [s].
+    """
+    if vel_noise_mps == 0 and contact_acc_noise_mps2 == 0:
+        return np.array([1.0, 1.0 / period_s])
+    A = np.array([[1.0, period_s], [0.0, 1.0]])
+    Q = np.diag([(period_s * contact_acc_noise_mps2) ** 2, (DISTURBANCE_RATE_MPS3 * period_s) ** 2])
+    P = np.eye(2)
+    K = np.zeros(2)
+    for _ in range(iterations):
+        K_next = P[:, 0] / (P[0, 0] + vel_noise_mps**2)
+        corrected = P - np.outer(K_next, P[0])
+        P = A @ corrected @ A.T + Q
+        if np.max(np.abs(K_next - K)) < tolerance:
+            return K_next
+        K = K_next
+    return K
+
+
+class DisturbanceEstimator:
+    r"""The CoM acceleration the contacts do not explain: a Kalman filter on velocity and disturbance.
+
+    Newton's law for the horizontal CoM motion, :math:`m \ddot x_c = f_{xy} + m w`, over one
+    control period :math:`\delta` predicts the CoM velocity from the previous one, the measured
+    contact force per unit mass averaged over the period, :math:`\bar a_k`
     (:attr:`~robust_ismpc.core.reference.Measurement.contact_acc_mps2`; on the LIP
-    :math:`\eta^2 (x_c - x_z)` averaged). An external moment about the CoM (a push above the
-    CoM, a load hanging off an arm) needs the ZMP to move just like a force does; when the
-    measurement carries it as an acceleration
-    (:attr:`~robust_ismpc.core.reference.Measurement.external_moment_acc_mps2`) it is added. Nothing
-    else enters: a robot's own swinging and spinning
-    move its centre of pressure, not its CoM's acceleration, so undisturbed the estimate stays
-    near zero, and a push shows at the next measurement. The raw value is low-pass filtered with
-    time constant ``time_constant_s`` (the estimate of a 0.1 s push ends about that long after
-    the push).
+    :math:`\eta^2 (x_c - x_z)` averaged), and the disturbance estimate; the measured velocity
+    corrects both (gain :func:`disturbance_gain`):
+
+    .. math::
+
+        e_k = \dot x_c^k - \big(\hat{\dot x}_c^{k-1} + \delta (\bar a_k + \hat w_{k-1})\big), \qquad
+        \hat{\dot x}_c^k = \hat{\dot x}_c^{k-1} + \delta (\bar a_k + \hat w_{k-1}) + K_v e_k, \qquad
+        w_k = \hat w_{k-1} + K_w e_k .
+
+    With exact signals :math:`K = (1, 1/\delta)` and :math:`w_k` is the velocity's change over the
+    period minus the contact acceleration; with noisy ones the filter integrates the velocity
+    rather than differentiating it. An external moment about the CoM (a push above the CoM, a
+    load hanging off an arm) needs the ZMP to move just like a force does; when the measurement
+    carries it as an acceleration
+    (:attr:`~robust_ismpc.core.reference.Measurement.external_moment_acc_mps2`) it is added to
+    :math:`w_k`. Nothing else enters: a robot's own swinging and spinning move its centre of
+    pressure, not its CoM's acceleration, so undisturbed the estimate stays near zero. The
+    estimate :math:`\hat w` is :math:`w_k` low-pass filtered with time constant
+    ``time_constant_s``.
 
     Parameters
     ----------
     time_constant_s : float
         Time constant of the first-order low-pass filter [s] (0: none).
+    period_s : float
+        Control period δ [s] the gain is computed for.
+    vel_noise_mps, contact_acc_noise_mps2 : float
+        Noise of the measured CoM velocity [m/s] and contact acceleration [m/s²] (0: exact).
     """
 
-    def __init__(self, time_constant_s: float) -> None:
-        check_nonnegative("DisturbanceEstimator", time_constant_s=time_constant_s)
+    def __init__(self, time_constant_s: float, period_s: float = 0.01, vel_noise_mps: float = 0.0,
+                 contact_acc_noise_mps2: float = 0.0) -> None:
+        check_nonnegative("DisturbanceEstimator", time_constant_s=time_constant_s, vel_noise_mps=vel_noise_mps,
+                          contact_acc_noise_mps2=contact_acc_noise_mps2)
+        check_positive("DisturbanceEstimator", period_s=period_s)
         self.time_constant_s = float(time_constant_s)
+        self.gain = disturbance_gain(vel_noise_mps, contact_acc_noise_mps2, period_s)
+        self.exact = vel_noise_mps == 0 and contact_acc_noise_mps2 == 0
         self.reset()
 
     def reset(self) -> None:
         """Forget the previous measurement; the estimate restarts from zero."""
         self.estimate_mps2 = np.zeros(2)
-        self._previous: tuple[float, np.ndarray] | None = None
+        self._w = np.zeros(2)
+        self._previous: tuple[float, np.ndarray] | None = None  # time, filtered velocity
 
     def update(self, t_s: float, com_vel_mps: np.ndarray, contact_acc_mps2: np.ndarray | None,
                moment_acc_mps2: np.ndarray | None = None) -> np.ndarray:
@@ -206,16 +281,28 @@ class DisturbanceEstimator:
         """
         vel = np.asarray(com_vel_mps, float)[:2].copy()
         previous = self._previous
-        self._previous = (float(t_s), vel)
         if previous is None or contact_acc_mps2 is None or not t_s > previous[0]:
+            self._previous = (float(t_s), vel)
             return self.estimate_mps2.copy()
         period = t_s - previous[0]
-        raw = (vel - previous[1]) / period - np.asarray(contact_acc_mps2, float)[:2]
-        if moment_acc_mps2 is not None:
-            raw = raw + np.asarray(moment_acc_mps2, float)[:2]
+        contact_acc = np.asarray(contact_acc_mps2, float)[:2]
+        moment_acc = np.zeros(2) if moment_acc_mps2 is None else np.asarray(moment_acc_mps2, float)[:2]
+        if self.exact:  # K = (1, 1/δ) written out, for the period that passed
+            self._previous = (float(t_s), vel)
+            raw = (vel - previous[1]) / period - contact_acc + moment_acc
+        else:
+            # the filter's w is the force part plus the moment part: the velocity changes by
+            # (contact_acc + force part) = (contact_acc - moment_acc) + w
+            predicted = previous[1] + period * (contact_acc - moment_acc + self._w)
+            innovation = vel - predicted
+            k_v, k_w = self.gain
+            self._previous = (float(t_s), predicted + k_v * innovation)
+            self._w = self._w + k_w * innovation
+            raw = self._w
         alpha = period / (self.time_constant_s + period)
         self.estimate_mps2 = self.estimate_mps2 + alpha * (raw - self.estimate_mps2)
         return self.estimate_mps2.copy()
 
 
-__all__ = ["DisturbanceEstimator", "EstimatorParams", "StateEstimator", "steady_state_gain"]
+__all__ = ["DISTURBANCE_RATE_MPS3", "DisturbanceEstimator", "EstimatorParams", "StateEstimator", "disturbance_gain",
+           "steady_state_gain"]

@@ -20,7 +20,9 @@ from ..control.controller import IsmpcController
 from ..control.walk import make_controller, start_walk
 from ..core.lip import discretise
 from ..core.reference import Measurement
+from ..estimation.estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError
+from ..robots.sensing import Sensors, sensing_preset
 from .forces import ForceWindow, total_force
 from .report import summarize
 from .spec import RunResult, RunSpec, gait_params, run_meta
@@ -70,6 +72,7 @@ def run_lip(
     divergence_m: float | None = None,
     progress=None,
     start_com_m: np.ndarray | None = None,
+    sensors: Sensors | None = None,
 ) -> tuple[RunOutcome, TraceRecorder]:
     """Close the loop between ``controller`` (already ``reset``) and a LIP.
 
@@ -90,6 +93,8 @@ def run_lip(
     start_com_m : ndarray, shape (2,), optional
         The LIP starts at rest with its CoM and ZMP here [m] (default: the origin, where
         :func:`~robust_ismpc.control.walk.start_walk` puts a reduced-model walk's CoM).
+    sensors : Sensors, optional
+        What the controller reads of the LIP's true state (default: the true state).
     """
     if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s) and duration_s > 0):
         raise ParameterError(f"duration_s must be a finite number > 0, got {duration_s!r}")
@@ -115,7 +120,10 @@ def run_lip(
             com_vel_mps=np.array([*true_state[1], 0.0]),
             zmp_m=true_state[2].copy(),
             contact_acc_mps2=contact_acc,
+            external_moment_acc_mps2=np.zeros(2),  # a point mass has no moment about its CoM
         )
+        if sensors is not None:
+            meas = sensors.read(meas)
         centre, half_box, yaw = plan.box_at(t)
         violation = zmp_box_violation(true_state[2], centre, yaw, half_box)
         try:
@@ -128,7 +136,8 @@ def run_lip(
             break
         recorder.record(
             t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
-            zmp_violation_m=violation, disturbance_true_mps2=w, **controller_channels(controller, ref, t),
+            zmp_violation_m=violation, disturbance_true_mps2=w, com_vel_read_mps=meas.com_vel_mps[:2],
+            **controller_channels(controller, ref, t),
         )
         zmp_vel = (ref.zmp_m - true_state[2]) / dt
         previous_vel = true_state[1]
@@ -153,12 +162,16 @@ def run_lip_spec(spec: RunSpec, progress=None) -> RunResult:
     ``KeyboardInterrupt`` the run stops there and returns what ran, with failure ``"interrupted"``.
     """
     robot = gait_params(spec.robot, "lip")
-    controller = make_controller(robot, spec.mpc, spec.modules, spec.delta_max_mps2)
+    sensing = sensing_preset(spec.sensing)
+    controller = make_controller(robot, spec.mpc, spec.modules, spec.delta_max_mps2,
+                                 estimator=sensing.estimator_params(EstimatorParams()))
     start_walk(controller, spec.command, spec.duration_s)
     start = time.perf_counter()
     recorder = TraceRecorder(int(spec.duration_s / controller.dt) + 2)
     try:
-        outcome, recorder = run_lip(controller, spec.duration_s, spec.forces, recorder=recorder, progress=progress)
+        sensors = Sensors(sensing, controller.dt, robot.eta, spec.seed)
+        outcome, recorder = run_lip(controller, spec.duration_s, spec.forces, recorder=recorder, progress=progress,
+                                    sensors=sensors)
     except KeyboardInterrupt:  # from progress, between ticks: keep the ticks recorded so far
         t = recorder.last_time_s()
         outcome = RunOutcome(fell=False, failure=INTERRUPTED, duration_s=0.0 if t is None else t + controller.dt)

@@ -35,6 +35,7 @@ import numpy as np
 from ..control.walk import make_controller, start_walk
 from ..estimation.estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
+from ..robots.sensing import Sensors, sensing_preset
 from ..sim.forces import Force
 from ..sim.instability import simulation_failure
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
@@ -170,7 +171,9 @@ def run_mujoco_spec(
 
     com0, left0, right0 = initial_state(robot_spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
-    controller = make_controller(params, spec.mpc, spec.modules, spec.delta_max_mps2, estimator=settings.estimator)
+    sensing = sensing_preset(spec.sensing)
+    controller = make_controller(params, spec.mpc, spec.modules, spec.delta_max_mps2,
+                                 estimator=sensing.estimator_params(settings.estimator))
     start_walk(controller, spec.command, spec.duration_s, left0.pos_m[:2], right0.pos_m[:2], yaw0, com0[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
@@ -185,6 +188,7 @@ def run_mujoco_spec(
     monitor = SceneMonitor(sim.model, scene_items) if scene_items else None
     mass = sim.robot.mass_kg
     robot = sim.robot
+    sensors = Sensors(sensing, dt, params.eta, spec.seed)
 
     n_ticks = int(math.floor(spec.duration_s / dt + 1e-9))
     recorder = TraceRecorder(n_ticks + 2)
@@ -206,11 +210,12 @@ def run_mujoco_spec(
             measurement, contacts = sim.measure()
             left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
+            reading = sensors.read(measurement)
             polygon = robot.support_polygon(contacts)
             violation = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)
             b = time.perf_counter()
             try:
-                reference = controller.step(t_s, measurement)
+                reference = controller.step(t_s, reading)
             except ControllerFailure as exc:
                 failure = f"{exc.reason}: {exc}"
                 break
@@ -234,6 +239,7 @@ def run_mujoco_spec(
             recorder.record(
                 t_s=t_s, com_m=measurement.com_pos_m[:2], com_vel_mps=measurement.com_vel_mps[:2], zmp_m=zmp,
                 zmp_violation_m=violation, disturbance_true_mps2=force[:2] / mass,
+                com_vel_read_mps=reading.com_vel_mps[:2],
                 sole_meas_m=np.concatenate([left_sole.pos_m[:2], right_sole.pos_m[:2]]),
                 sole_meas_yaw_rad=(left_sole.yaw_rad, right_sole.yaw_rad),
                 **controller_channels(controller, reference, t_s),

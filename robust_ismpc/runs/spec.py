@@ -14,6 +14,7 @@ from ..core.planner import WalkCommand
 from ..exceptions import ParameterError
 from ..extras import require_extra
 from ..robots import BUILTIN_ROBOTS, is_robot_file, robot_reference
+from ..robots.sensing import sensing_preset
 from .forces import ForceWindow
 from .trace import Trace
 
@@ -72,6 +73,10 @@ class RunSpec:
     mpc : MpcParams or None
         MPC settings; None: :func:`~robust_ismpc.core.params.mpc_params_for` the robot (the defaults,
         with a control horizon of at least one step).
+    sensing : str
+        Sensor model between the simulator's true state and the controller
+        (:data:`~robust_ismpc.robots.sensing.SENSING_PRESETS`: ``ideal``, the default, or
+        ``realistic``); its noise is drawn from ``seed``.
     whole_body : str or None
         MuJoCo only: ``torque`` (an inverse-dynamics QP drives torque motors,
         :mod:`robust_ismpc.sim.whole_body.inverse_dynamics`; the default) or ``servo`` (the model's
@@ -88,6 +93,7 @@ class RunSpec:
     delta_max_mps2: float | None = None
     mpc: MpcParams | None = None
     whole_body: str | None = None
+    sensing: str = "ideal"
 
     def __post_init__(self) -> None:
         if self.sim not in SIMS:
@@ -102,6 +108,7 @@ class RunSpec:
         if not (isinstance(self.duration_s, (int, float)) and math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
         object.__setattr__(self, "modules", check_modules(self.modules))
+        sensing_preset(self.sensing)  # validates the name
         if not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
         if self.delta_max_mps2 is not None and not (
@@ -141,6 +148,7 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
         ],
         "delta_max_mps2": spec.delta_max_mps2,
         "whole_body": spec.whole_body,
+        "sensing": sensing_preset(spec.sensing).as_dict(),
         "zmp_box_x_m": robot.zmp_box_x_m,
         "zmp_box_y_m": robot.zmp_box_y_m,
         "sole_length_m": robot.sole_length_m,

@@ -1,0 +1,207 @@
+r"""What a robot's sensors make of its true state: noise, bias and latency on the measurement.
+
+A simulator knows the robot's true state; a robot only measures it. :class:`Sensors` sits
+between the two: every control tick it receives the true :class:`~robust_ismpc.core.reference.Measurement`
+and returns the one the controller gets, with
+
+- the CoM position offset by a constant bias (a mass-model error moves the computed CoM; its
+  direction is drawn once per run from the seed) and white noise,
+- white noise on the CoM velocity (what an IMU-and-leg-kinematics base estimate gives),
+- white noise on the horizontal contact force and on the contact moment (foot force-torque
+  sensors; a standard deviation given as a fraction of the robot's weight, per axis and tick);
+  the contact moment is taken about the measured CoM, so the CoM bias :math:`b` shows in the
+  external moment (:attr:`~robust_ismpc.core.reference.Measurement.external_moment_acc_mps2`) as
+  :math:`-\eta^2 b`: the weight, acting at the true CoM, has a moment :math:`-b \times m g`
+  about the measured one,
+- white noise on the measured soles and the centre of pressure,
+- a latency: the controller gets the reading of ``latency_s`` ago.
+
+:data:`SENSING_PRESETS` names the models a run may ask for: ``ideal`` (the simulator's ground
+truth, for tests and for comparisons with the paper) and ``realistic`` (the orders of magnitude of
+a humanoid's state estimate, below). Noise is drawn from the run's seed, so a run is reproducible.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..core.params import GRAVITY_MPS2
+from ..core.reference import Measurement
+from ..estimation.estimator import EstimatorParams
+from ..exceptions import ParameterError
+from ..validation import check_nonnegative
+
+
+@dataclass(frozen=True)
+class SensingParams:
+    """A sensor model: standard deviations of white noise, a bias and a latency.
+
+    Attributes
+    ----------
+    name : str
+        The preset's name, recorded with every run.
+    com_pos_noise_m : float
+        σ of the horizontal CoM position, per axis and tick [m].
+    com_pos_bias_m : float
+        Length of a constant horizontal offset of the CoM position [m]; its direction is drawn
+        once per run.
+    com_vel_noise_mps : float
+        σ of the horizontal CoM velocity, per axis and tick [m/s].
+    contact_force_noise : float
+        σ of the horizontal contact force per axis and tick, as a fraction of the robot's weight
+        [-]; the contact moment about the CoM gets the same σ as an LIP acceleration.
+    position_noise_m : float
+        σ of the measured soles and centre of pressure, per axis and tick [m].
+    latency_s : float
+        Age of the reading the controller gets [s]; a whole number of control periods.
+    """
+
+    name: str = "ideal"
+    com_pos_noise_m: float = 0.0
+    com_pos_bias_m: float = 0.0
+    com_vel_noise_mps: float = 0.0
+    contact_force_noise: float = 0.0
+    position_noise_m: float = 0.0
+    latency_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ParameterError(f"SensingParams.name must be a non-empty string, got {self.name!r}")
+        check_nonnegative("SensingParams", com_pos_noise_m=self.com_pos_noise_m, com_pos_bias_m=self.com_pos_bias_m,
+                          com_vel_noise_mps=self.com_vel_noise_mps, contact_force_noise=self.contact_force_noise,
+                          position_noise_m=self.position_noise_m, latency_s=self.latency_s)
+
+    @property
+    def is_ideal(self) -> bool:
+        """True when the controller reads the true state."""
+        return all(v == 0 for v in (self.com_pos_noise_m, self.com_pos_bias_m, self.com_vel_noise_mps,
+                                    self.contact_force_noise, self.position_noise_m, self.latency_s))
+
+    def estimator_params(self, base: EstimatorParams) -> EstimatorParams:
+        """The estimator a controller reading these sensors uses: ``base`` (the model's own
+        mismatch) with the sensors' noise, the larger of the two per signal.
+
+        Parameters
+        ----------
+        base : EstimatorParams
+            The estimator for exact signals (the LIP's: none; a MuJoCo robot's:
+            :data:`~robust_ismpc.runs.mujoco.ROBOT_ESTIMATOR`).
+        """
+        if self.is_ideal:
+            return base
+        return replace(
+            base,
+            com_pos_noise_m=max(base.com_pos_noise_m, self.com_pos_noise_m),
+            com_vel_noise_mps=max(base.com_vel_noise_mps, self.com_vel_noise_mps),
+            sensor_vel_noise_mps=self.com_vel_noise_mps,
+            sensor_contact_acc_noise_mps2=math.sqrt(2.0) * self.contact_force_noise * GRAVITY_MPS2,  # force and moment
+        )
+
+    def as_dict(self) -> dict:
+        """The model as plain values (``summary.json``)."""
+        return {"name": self.name, "com_pos_noise_m": self.com_pos_noise_m, "com_pos_bias_m": self.com_pos_bias_m,
+                "com_vel_noise_mps": self.com_vel_noise_mps, "contact_force_noise": self.contact_force_noise,
+                "position_noise_m": self.position_noise_m, "latency_s": self.latency_s}
+
+
+#: The sensor models a run can name. ``realistic``: a base-velocity estimate from an IMU and
+#: leg kinematics is good to a few cm/s (3 cm/s here), the CoM computed from a mass model is off
+#: by about 1 cm, foot force-torque sensors read to about 2 % of the weight, encoders and
+#: kinematics place the feet to a few mm, and sensing, estimation and communication add about
+#: one control period of delay (10 ms).
+SENSING_PRESETS: dict[str, SensingParams] = {
+    "ideal": SensingParams(),
+    "realistic": SensingParams(name="realistic", com_pos_noise_m=0.002, com_pos_bias_m=0.01, com_vel_noise_mps=0.03,
+                               contact_force_noise=0.02, position_noise_m=0.002, latency_s=0.01),
+}
+
+
+def sensing_preset(name: str) -> SensingParams:
+    """The preset called ``name``.
+
+    Raises
+    ------
+    ParameterError
+        No preset has that name (the message lists them).
+    """
+    if name not in SENSING_PRESETS:
+        raise ParameterError(f"unknown sensing {name!r}; use one of: {', '.join(SENSING_PRESETS)}")
+    return SENSING_PRESETS[name]
+
+
+class Sensors:
+    """Turns the true measurement of each tick into the one the controller reads.
+
+    Parameters
+    ----------
+    params : SensingParams
+    period_s : float
+        Control period [s]; ``params.latency_s`` must be a whole number of them.
+    eta : float
+        LIP natural frequency sqrt(g / h) [1/s] of the CoM height the external moment is
+        expressed with.
+    seed : int
+        Seed of the noise and of the bias direction.
+    """
+
+    def __init__(self, params: SensingParams, period_s: float, eta: float, seed: int = 0) -> None:
+        if not isinstance(params, SensingParams):
+            raise ParameterError(f"sensing must be SensingParams, got {type(params).__name__}")
+        ticks = params.latency_s / period_s
+        if abs(ticks - round(ticks)) > 1e-6:
+            raise ParameterError(
+                f"sensing latency ({params.latency_s} s) must be a whole number of control periods ({period_s} s)"
+            )
+        self.params = params
+        self.latency_ticks = int(round(ticks))
+        self._acc_noise_mps2 = params.contact_force_noise * GRAVITY_MPS2  # σ F / m
+        self._rng = np.random.default_rng(seed)
+        angle = self._rng.uniform(0.0, 2.0 * math.pi)
+        self.com_bias_m = params.com_pos_bias_m * np.array([math.cos(angle), math.sin(angle)])
+        self._bias_moment_acc_mps2 = -eta**2 * self.com_bias_m
+        self._queue: deque[Measurement] = deque()
+
+    def read(self, truth: Measurement) -> Measurement:
+        """The measurement the controller gets at this tick, from the true one (shapes as in
+        :class:`~robust_ismpc.core.reference.Measurement`).
+
+        Until ``latency_s`` has passed since the first tick it is the first tick's reading.
+        """
+        if self.params.is_ideal:
+            return truth
+        sensed = self._corrupt(truth)
+        self._queue.append(sensed)
+        if len(self._queue) > self.latency_ticks + 1:
+            self._queue.popleft()
+        return self._queue[0]
+
+    def _noise(self, sigma: float, size: int = 2) -> np.ndarray:
+        return sigma * self._rng.standard_normal(size) if sigma > 0 else np.zeros(size)
+
+    def _corrupt(self, m: Measurement) -> Measurement:
+        p = self.params
+        com = np.array(m.com_pos_m, float)
+        com[:2] += self.com_bias_m + self._noise(p.com_pos_noise_m)
+        vel = np.array(m.com_vel_mps, float)
+        vel[:2] += self._noise(p.com_vel_noise_mps)
+
+        def noisy(v: np.ndarray | None, sigma: float) -> np.ndarray | None:
+            return None if v is None else np.asarray(v, float) + self._noise(sigma, np.size(v))
+
+        return replace(
+            m, com_pos_m=com, com_vel_mps=vel,
+            zmp_m=noisy(m.zmp_m, p.position_noise_m),
+            left_sole_m=noisy(m.left_sole_m, p.position_noise_m),
+            right_sole_m=noisy(m.right_sole_m, p.position_noise_m),
+            contact_acc_mps2=noisy(m.contact_acc_mps2, self._acc_noise_mps2),
+            external_moment_acc_mps2=(None if m.external_moment_acc_mps2 is None else
+                                      np.asarray(m.external_moment_acc_mps2, float) + self._bias_moment_acc_mps2
+                                      + self._noise(self._acc_noise_mps2)),
+        )
+
+
+__all__ = ["SENSING_PRESETS", "SensingParams", "Sensors", "sensing_preset"]
