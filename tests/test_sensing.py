@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -35,7 +37,7 @@ def test_ideal_sensors_return_the_truth():
 def test_the_noise_has_the_standard_deviations_of_the_model():
     """Over 4000 ticks each noise's sample standard deviation is within 5 % of the model's."""
     params = SENSING_PRESETS["realistic"]
-    sensors = Sensors(replace_latency(params, 0.0), DT, ETA, seed=4)
+    sensors = Sensors(replace(params, latency_s=0.0), DT, ETA, seed=4)
     truth = _truth(0)
     reads = [sensors.read(truth) for _ in range(4000)]
     vel = np.array([r.com_vel_mps[:2] for r in reads]) - truth.com_vel_mps[:2]
@@ -45,12 +47,6 @@ def test_the_noise_has_the_standard_deviations_of_the_model():
     np.testing.assert_allclose(acc.std(axis=0), params.contact_force_noise * 9.81, rtol=0.05)
     np.testing.assert_allclose(pos.std(axis=0), params.com_pos_noise_m, rtol=0.05)
     np.testing.assert_allclose(pos.mean(axis=0), 0.0, atol=3 * params.com_pos_noise_m / np.sqrt(4000))
-
-
-def replace_latency(params: SensingParams, latency_s: float) -> SensingParams:
-    from dataclasses import replace
-
-    return replace(params, latency_s=latency_s)
 
 
 def test_latency_delivers_the_reading_of_that_many_periods_ago():

@@ -63,7 +63,7 @@ def _compare_scenario(args) -> int:
     scenario = get_scenario(args.scenario)
     if args.sim is not None and args.sim != "mujoco":
         raise ParameterError(f"scenario {scenario.name} runs --sim mujoco; drop --sim {args.sim}")
-    if getattr(args, "sensing", "ideal") != "ideal":
+    if args.sensing != "ideal":
         raise ParameterError(f"scenario {scenario.name} runs with ideal sensing; --sensing {args.sensing} is not "
                              "available for scenarios yet (use ismpc run)")
     if args.robot is not None:

@@ -106,16 +106,24 @@ def steady_state_gain(params: EstimatorParams, eta: float, period_s: float, iter
     if params.exact:
         return np.eye(2)
     lip = discretise(eta, period_s)
-    A = lip.A[:2, :2]
     G = lip.E[:2].reshape(2, 1)
     Q = params.acc_noise_mps2**2 * (G @ G.T)
     R = np.diag([params.com_pos_noise_m**2, params.com_vel_noise_mps**2])
+    return _steady_state_kalman_gain(lip.A[:2, :2], np.eye(2), Q, R, iterations, tolerance)
+
+
+def _steady_state_kalman_gain(A: np.ndarray, H: np.ndarray, Q: np.ndarray, R: np.ndarray, iterations: int,
+                              tolerance: float) -> np.ndarray:
+    """Gain K, shape (n, m), of the Riccati iteration of x' = A x + noise (covariance Q, n x n),
+    y = H x + noise (covariance R, m x m), from the predicted covariance Q, until two successive
+    gains differ by less than ``tolerance`` or after ``iterations``."""
+    n = A.shape[0]
     P = Q.copy()  # predicted covariance
-    K = np.zeros((2, 2))
+    K = np.zeros((n, H.shape[0]))
     for _ in range(iterations):
-        S = P + R
-        K_next = np.linalg.solve(S.T, P.T).T  # P S^-1 (H = I)
-        corrected = (np.eye(2) - K_next) @ P
+        S = H @ P @ H.T + R
+        K_next = np.linalg.solve(S.T, (P @ H.T).T).T  # P Hᵀ S⁻¹
+        corrected = (np.eye(n) - K_next @ H) @ P
         P = A @ corrected @ A.T + Q
         if np.max(np.abs(K_next - K)) < tolerance:
             return K_next
@@ -198,16 +206,8 @@ def disturbance_gain(vel_noise_mps: float, contact_acc_noise_mps2: float, period
         return np.array([1.0, 1.0 / period_s])
     A = np.array([[1.0, period_s], [0.0, 1.0]])
     Q = np.diag([(period_s * contact_acc_noise_mps2) ** 2, (DISTURBANCE_RATE_MPS3 * period_s) ** 2])
-    P = np.eye(2)
-    K = np.zeros(2)
-    for _ in range(iterations):
-        K_next = P[:, 0] / (P[0, 0] + vel_noise_mps**2)
-        corrected = P - np.outer(K_next, P[0])
-        P = A @ corrected @ A.T + Q
-        if np.max(np.abs(K_next - K)) < tolerance:
-            return K_next
-        K = K_next
-    return K
+    gain = _steady_state_kalman_gain(A, np.array([[1.0, 0.0]]), Q, np.array([[vel_noise_mps**2]]), iterations, tolerance)
+    return gain[:, 0]
 
 
 class DisturbanceEstimator:

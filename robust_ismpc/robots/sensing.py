@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -103,9 +103,7 @@ class SensingParams:
 
     def as_dict(self) -> dict:
         """The model as plain values (``summary.json``)."""
-        return {"name": self.name, "com_pos_noise_m": self.com_pos_noise_m, "com_pos_bias_m": self.com_pos_bias_m,
-                "com_vel_noise_mps": self.com_vel_noise_mps, "contact_force_noise": self.contact_force_noise,
-                "position_noise_m": self.position_noise_m, "latency_s": self.latency_s}
+        return asdict(self)
 
 
 #: The sensor models a run can name. ``realistic``: a base-velocity estimate from an IMU and
