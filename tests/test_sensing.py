@@ -125,3 +125,11 @@ def test_under_sensor_noise_the_robust_controller_walks_with_a_quiet_estimate(se
     assert not outcome.fell, outcome.failure
     w = trace.channels["disturbance_measured_mps2"][100:]
     assert np.all(w.std(axis=0) < 0.1)
+
+
+def test_a_run_names_its_sensing_in_its_summary():
+    from robust_ismpc.runs.run import run
+
+    result = run(RunSpec(robot="g1", sim="lip", duration_s=0.5, sensing="realistic", seed=3))
+    assert result.summary["sensing"] == SENSING_PRESETS["realistic"].as_dict()
+    assert result.summary["seed"] == 3
