@@ -150,6 +150,10 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--sensing", default="ideal", choices=tuple(SENSING_PRESETS),
                    help="what the controller reads: ideal (the simulator's true state, the default) or realistic "
                         "(noise, bias and 10 ms latency; see docs/closed-loop.md)")
+    p.add_argument("--mismatch", action="append", default=[], metavar="KEY=VALUE",
+                   help="mujoco only, repeatable: the simulated robot differs from the controller's model: "
+                        "mass=FACTOR (every link), payload=KG[@X,Y,Z] (fixed to the torso, offset from its "
+                        "origin [m]), motor=FACTOR (every motor's torque); see docs/closed-loop.md")
     _add_output_arguments(p, "output directory (summary.json, gait.png, trace.npz)")
     p.add_argument("--video", action="store_true",
                    help="mujoco only: also write an mp4 (offscreen rendering) with time, controller and push arrows")

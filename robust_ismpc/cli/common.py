@@ -92,6 +92,7 @@ def _check_sim_flags(args) -> None:
 def _spec(args, modules: tuple[str, ...]):
     """The RunSpec of ``args``, with the command clipped to the robot's steps, and the warnings."""
     from ..core.planner import WalkCommand
+    from ..robots.mismatch import parse_mismatch
     from ..runs.spec import RunSpec, gait_params
     from .inputs import check_forces_in_run, limit_command
 
@@ -99,7 +100,7 @@ def _spec(args, modules: tuple[str, ...]):
     spec = RunSpec(
         robot=args.robot, sim=args.sim, modules=modules, duration_s=args.duration,
         forces=tuple(w for _, _, w in forces), seed=args.seed, delta_max_mps2=args.delta_max,
-        whole_body=args.whole_body, sensing=args.sensing,
+        whole_body=args.whole_body, sensing=args.sensing, mismatch=parse_mismatch(args.mismatch),
     )
     check_forces_in_run(forces, args.duration)
     requested = {"--vx": args.vx, "--vy": args.vy, "--omega": args.omega}

@@ -59,13 +59,11 @@ def _compare_scenario(args) -> int:
     from ..experiments.scenarios import disturbance_events, get_scenario, on_robot, run_scenario
     from ..io import atomic_write_json
     from ..plotting import plot_comparison
+    from ..robots.mismatch import parse_mismatch
 
     scenario = get_scenario(args.scenario)
     if args.sim is not None and args.sim != "mujoco":
         raise ParameterError(f"scenario {scenario.name} runs --sim mujoco; drop --sim {args.sim}")
-    if args.sensing != "ideal":
-        raise ParameterError(f"scenario {scenario.name} runs with ideal sensing; --sensing {args.sensing} is not "
-                             "available for scenarios yet (use ismpc run)")
     if args.robot is not None:
         from ..robots import robot_reference
 
@@ -90,7 +88,8 @@ def _compare_scenario(args) -> int:
     labels = {"nominal": "nominal", "robust": _robust_label(scenario.robust_modules)}
     result = run_scenario(scenario, seed=args.seed, extra_forces=tuple(w for _, _, w in forces),
                           progress=lambda label: _progress(args, labels.get(label, label)),
-                          video_dir=out if args.video else None, whole_body=args.whole_body)
+                          video_dir=out if args.video else None, whole_body=args.whole_body,
+                          sensing=args.sensing, mismatch=parse_mismatch(args.mismatch))
     for label, run_result in result.results.items():
         (out / label).mkdir(exist_ok=True)
         _end_progress(args)

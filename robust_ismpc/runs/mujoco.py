@@ -177,18 +177,20 @@ def run_mujoco_spec(
     start_walk(controller, spec.command, spec.duration_s, left0.pos_m[:2], right0.pos_m[:2], yaw0, com0[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
+    sensors = Sensors(sensing, dt, params.eta, spec.seed)
     loop = LoopSettings(
         control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=robot_spec.foot_friction,
         dynamic_feedforward=robot_spec.servo_dynamic_feedforward,
         disturbance_feedforward=settings.disturbance_feedforward,
         torque_control=settings.torque_control if spec.whole_body == "torque" else None,
+        com_model_error_m=(float(sensors.com_bias_m[0]), float(sensors.com_bias_m[1])),
     )
     forces += scene_forces(scene_items)
-    sim = MujocoSimulation(robot_spec, disturbances=forces, scene_items=scene_items, settings=loop)
+    sim = MujocoSimulation(robot_spec, disturbances=forces, scene_items=scene_items, settings=loop,
+                          mismatch=spec.mismatch)
     monitor = SceneMonitor(sim.model, scene_items) if scene_items else None
     mass = sim.robot.mass_kg
     robot = sim.robot
-    sensors = Sensors(sensing, dt, params.eta, spec.seed)
 
     n_ticks = int(math.floor(spec.duration_s / dt + 1e-9))
     recorder = TraceRecorder(n_ticks + 2)

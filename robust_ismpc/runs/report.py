@@ -78,7 +78,7 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
     if wall_time_s is not None and wall_time_s > 0:
         summary["wall_time_s"] = round(wall_time_s, 3)
         summary["realtime_factor"] = round(duration_s / wall_time_s, 3)
-    for key in ("seed", "sensing", "command", "forces", "pushes", "delta_max_mps2", "scenario"):
+    for key in ("seed", "sensing", "mismatch", "command", "forces", "pushes", "delta_max_mps2", "scenario"):
         if key in meta:
             summary[key] = meta[key]
     return summary

@@ -14,6 +14,7 @@ from ..core.planner import WalkCommand
 from ..exceptions import ParameterError
 from ..extras import require_extra
 from ..robots import BUILTIN_ROBOTS, is_robot_file, robot_reference
+from ..robots.mismatch import NO_MISMATCH, ModelMismatch
 from ..robots.sensing import sensing_preset
 from .forces import ForceWindow
 from .trace import Trace
@@ -77,6 +78,9 @@ class RunSpec:
         Sensor model between the simulator's true state and the controller
         (:data:`~robust_ismpc.robots.sensing.SENSING_PRESETS`: ``ideal``, the default, or
         ``realistic``); its noise is drawn from ``seed``.
+    mismatch : ModelMismatch
+        MuJoCo only: how the simulated robot differs from the controller's model (masses, a
+        payload, motors; :mod:`robust_ismpc.robots.mismatch`). None by default.
     whole_body : str or None
         MuJoCo only: ``torque`` (an inverse-dynamics QP drives torque motors,
         :mod:`robust_ismpc.sim.whole_body.inverse_dynamics`; the default) or ``servo`` (the model's
@@ -94,6 +98,7 @@ class RunSpec:
     mpc: MpcParams | None = None
     whole_body: str | None = None
     sensing: str = "ideal"
+    mismatch: ModelMismatch = NO_MISMATCH
 
     def __post_init__(self) -> None:
         if self.sim not in SIMS:
@@ -109,6 +114,11 @@ class RunSpec:
             raise ParameterError(f"duration must be a finite number of seconds > 0, got {self.duration_s!r}")
         object.__setattr__(self, "modules", check_modules(self.modules))
         sensing_preset(self.sensing)  # validates the name
+        if not isinstance(self.mismatch, ModelMismatch):
+            raise ParameterError(f"mismatch must be a ModelMismatch, got {type(self.mismatch).__name__}")
+        if self.sim != "mujoco" and not self.mismatch.is_none:
+            raise ParameterError("a model mismatch (--mismatch) needs --sim mujoco: the reduced model has no "
+                                 "masses or motors to change")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"seed must be an integer >= 0, got {self.seed!r}")
         if self.delta_max_mps2 is not None and not (
@@ -149,6 +159,7 @@ def run_meta(spec: RunSpec, robot: RobotParams) -> dict:
         "delta_max_mps2": spec.delta_max_mps2,
         "whole_body": spec.whole_body,
         "sensing": sensing_preset(spec.sensing).as_dict(),
+        "mismatch": spec.mismatch.as_dict(),
         "zmp_box_x_m": robot.zmp_box_x_m,
         "zmp_box_y_m": robot.zmp_box_y_m,
         "sole_length_m": robot.sole_length_m,

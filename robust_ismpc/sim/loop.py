@@ -34,8 +34,10 @@ import numpy as np
 
 from ..core.reference import GaitReference, Measurement
 from ..exceptions import ParameterError
+from ..robots.mismatch import NO_MISMATCH, ModelMismatch
 from ..robots.spec import RobotSpec
 from .forces import Disturbance, ForceSchedule
+from .mismatch import apply_mismatch
 from .model import compile_model
 from .robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
 from .scene import SceneItem, build_scene, set_scene_initial_state
@@ -88,6 +90,11 @@ class LoopSettings:
         position targets: the actuators of a copy of the model become torque motors. The IK
         configuration is then the QP's posture reference; ``gravity_feedforward`` and the motor
         gains are unused. None (default): the actuators as the model defines them.
+    com_model_error_m : tuple of float
+        Horizontal offset (x, y) [m] of the CoM the controller's model computes from the true one
+        (a mass-model error; :attr:`~robust_ismpc.robots.sensing.Sensors.com_bias_m`). The whole
+        body then tracks the reference with that CoM, as the planner reads it: the robot's true
+        CoM follows the reference shifted by minus the offset. Zero by default.
     """
 
     control_period_s: float = 0.01
@@ -102,6 +109,7 @@ class LoopSettings:
     dynamic_feedforward: bool = False
     disturbance_feedforward: bool = True
     torque_control: TorqueControlSettings | None = None
+    com_model_error_m: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not isinstance(self.control_period_s, (int, float)) or not self.control_period_s > 0:
@@ -116,6 +124,9 @@ class LoopSettings:
             raise ParameterError(
                 f"LoopSettings.torque_control must be TorqueControlSettings or None, got {type(self.torque_control).__name__}"
             )
+        error = np.asarray(self.com_model_error_m, dtype=float)
+        if error.shape != (2,) or not np.all(np.isfinite(error)):
+            raise ParameterError(f"LoopSettings.com_model_error_m must be two finite numbers, got {self.com_model_error_m!r}")
 
 
 def _make_torque_motors(model: mujoco.MjModel) -> None:
@@ -193,6 +204,9 @@ class MujocoSimulation:
     scene_items : sequence of Payload or SwingingBall
         Objects added to the scene before compiling.
     settings : LoopSettings
+    mismatch : ModelMismatch
+        How the simulated robot differs from the model the controller, the whole body and the
+        measurement use (:mod:`robust_ismpc.robots.mismatch`); none by default.
     """
 
     def __init__(
@@ -201,11 +215,14 @@ class MujocoSimulation:
         disturbances: Sequence[Disturbance] = (),
         scene_items: Sequence[SceneItem] = (),
         settings: LoopSettings | None = None,
+        mismatch: ModelMismatch = NO_MISMATCH,
     ) -> None:
         self.spec = spec
         self.settings = settings or LoopSettings()
-        self.model = build_scene(spec, scene_items)
-        if self.settings.foot_friction is not None or self.settings.torque_control is not None:
+        self.mismatch = mismatch
+        self.model = build_scene(spec, scene_items, mismatch)
+        if (self.settings.foot_friction is not None or self.settings.torque_control is not None
+                or not mismatch.is_none):
             self.model = copy.deepcopy(self.model)  # build_scene may return the cached model
         if self.settings.torque_control is not None:
             _make_torque_motors(self.model)
@@ -218,7 +235,9 @@ class MujocoSimulation:
                 f"model timestep ({timestep})"
             )
         self.substeps = int(round(ratio))
+        # the robot measures with the model's masses and inertias: copied here, before the mismatch
         self.robot = MujocoRobot(spec, self.model, self.data, self.settings.contact_threshold_n)
+        apply_mismatch(self.model, self.robot.robot_body_ids, mismatch)
         if self.settings.foot_friction is not None:
             for geom in self.robot.foot_geom_ids():
                 self.model.geom_friction[geom, 0] = self.settings.foot_friction
@@ -273,6 +292,9 @@ class MujocoSimulation:
     def command(self, reference: GaitReference) -> None:
         """Run one IK step on ``reference`` and set the actuator targets."""
         dt = self.settings.control_period_s
+        if any(self.settings.com_model_error_m):  # the whole body reads the CoM as c + e: track c_ref - e
+            error = np.array([*self.settings.com_model_error_m, 0.0])
+            reference = replace(reference, com_pos_m=np.asarray(reference.com_pos_m, dtype=float) - error)
         qpos = self.ik.step(reference, dt, self.robot.base_qpos())
         self._targets = self.actuators.targets(qpos)
         qvel = np.empty(self.ik.model.nv)

@@ -246,7 +246,10 @@ class MujocoRobot:
                 parent = model.body_parentid[parent]
             in_robot[b] = chain_ok and parent == self.root_id
         self.robot_body_ids = np.flatnonzero(in_robot)
+        # the masses and inertias the robot is measured with: the model's as built (a simulated
+        # model mismatch changes the model afterwards, sim/mismatch.py)
         self._body_mass = model.body_mass[self.robot_body_ids].copy()
+        self._body_inertia = model.body_inertia[self.robot_body_ids].copy()
         self.mass_kg = float(self._body_mass.sum())
 
         # Geoms of each foot (the foot frame's body and its descendants) and of the floor.
@@ -326,7 +329,7 @@ class MujocoRobot:
         ids = self.robot_body_ids
         orbital = self._body_mass[:, None] * _cross(xipos - com, vel_points - vel)
         rot = self.data.ximat[ids].reshape(-1, 3, 3)
-        local = np.einsum("nji,nj->ni", rot, omega) * self.model.body_inertia[ids]
+        local = np.einsum("nji,nj->ni", rot, omega) * self._body_inertia
         spin = np.einsum("nij,nj->ni", rot, local)
         return (orbital + spin).sum(axis=0)
 

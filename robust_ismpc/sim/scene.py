@@ -1,4 +1,5 @@
-"""Objects added to a robot's scene: a payload on a pendulum, a swinging ball.
+"""Objects added to a robot's scene: a payload on a pendulum, a swinging ball, and the rigid
+payload of a model mismatch (:class:`~robust_ismpc.robots.mismatch.ModelMismatch`).
 
 Scene objects (:class:`Payload`, :class:`SwingingBall`) are added with ``mujoco.MjSpec`` before
 compiling (:func:`build_scene`); their joints set damping, armature and friction loss explicitly,
@@ -16,6 +17,7 @@ import mujoco
 import numpy as np
 
 from ..exceptions import ModelError, ParameterError
+from ..robots.mismatch import NO_MISMATCH, ModelMismatch
 from ..robots.spec import RobotSpec
 from ..validation import check_number, check_positive, check_vector
 from .forces import Force
@@ -152,7 +154,11 @@ def _add_rope_and_bob(body, rope_length_m: float, rope_radius_m: float, bob_radi
         bob.conaffinity = 0
 
 
-def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjModel:
+#: Body name of a model mismatch's payload.
+LOAD_BODY = f"{DISTURBANCE_PREFIX}load"
+
+
+def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = (), mismatch: ModelMismatch = NO_MISMATCH) -> mujoco.MjModel:
     """Compile the robot scene with disturbance objects added.
 
     Parameters
@@ -160,20 +166,29 @@ def build_scene(spec: RobotSpec, items: Sequence[SceneItem] = ()) -> mujoco.MjMo
     spec : RobotSpec
         The robot (its ``model_path`` is the base scene).
     items : sequence of Payload or SwingingBall
+    mismatch : ModelMismatch
+        Its payload, if any, is a sphere fixed rigidly to the torso (:data:`LOAD_BODY`; a
+        disturbance body, so the robot's measured CoM and mass exclude it). Its other fields
+        act on the compiled model (:func:`~robust_ismpc.sim.mismatch.apply_mismatch`).
 
     Returns
     -------
     mujoco.MjModel
-        A new model (the cached robot model itself when ``items`` is empty: do not mutate it).
+        A new model (the cached robot model itself when there is nothing to add: do not mutate it).
 
     Raises
     ------
     ModelError
         A payload link is absent from the model, or the edited scene does not compile.
     """
-    if not items:
+    if not items and mismatch.payload_kg == 0:
         return compile_model(spec)
     mj_spec = scene_spec(spec)
+    if mismatch.payload_kg > 0:
+        torso = mj_spec.body(spec.torso_body)
+        load = torso.add_body(name=LOAD_BODY, pos=list(mismatch.payload_offset_m))
+        load.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.03, 0, 0], mass=mismatch.payload_kg,
+                      contype=0, conaffinity=0, rgba=[0.2, 0.4, 0.9, 1])
     for index, item in enumerate(items):
         if isinstance(item, Payload):
             link_name = item.link or spec.torso_body

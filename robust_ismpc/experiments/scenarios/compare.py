@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...core.planner import WalkCommand
+from ...robots.mismatch import NO_MISMATCH, ModelMismatch
 from ...runs.forces import ForceWindow
 from ...runs.spec import RunResult
 from .catalogue import Scenario, get_scenario
@@ -199,6 +200,8 @@ def run_scenario(
     progress: Callable[[str], Callable[[float], None] | None] | None = None,
     video_dir=None,
     whole_body: str | None = None,
+    sensing: str = "ideal",
+    mismatch: ModelMismatch = NO_MISMATCH,
 ) -> ScenarioResult:
     """Run the nominal and the robust controller on one seed of ``scenario`` in MuJoCo.
 
@@ -217,6 +220,11 @@ def run_scenario(
     whole_body : str or None
         ``servo`` or ``torque`` (:attr:`~robust_ismpc.runs.spec.RunSpec.whole_body`); None (default):
         the run specs' default.
+    sensing : str
+        What both controllers read (:attr:`~robust_ismpc.runs.spec.RunSpec.sensing`; ``ideal``
+        by default).
+    mismatch : ModelMismatch
+        How the simulated robot differs from the controllers' model (none by default).
     """
     from pathlib import Path
 
@@ -229,6 +237,7 @@ def run_scenario(
     realised = realise(scenario, seed, extra_forces)
     results = {}
     for label, spec in (("nominal", realised.nominal), ("robust", realised.robust)):
+        spec = replace(spec, sensing=sensing, mismatch=mismatch)
         if whole_body is not None:
             spec = replace(spec, whole_body=whole_body)
         video = None

@@ -1,0 +1,98 @@
+"""Model mismatch: the simulated robot differs from the controller's model (robots/mismatch.py, sim/mismatch.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robust_ismpc.exceptions import ParameterError
+from robust_ismpc.robots.mismatch import NO_MISMATCH, ModelMismatch, parse_mismatch
+from robust_ismpc.runs.spec import RunSpec
+
+
+def test_parse_reads_each_key_and_leaves_the_others_as_modelled():
+    m = parse_mismatch(["mass=1.1", "payload=3.3@0.05,0,0.1"])
+    assert m == ModelMismatch(mass_scale=1.1, payload_kg=3.3, payload_offset_m=(0.05, 0.0, 0.1))
+    assert parse_mismatch(["motor=0.8"]).motor_strength == 0.8
+    assert parse_mismatch(["payload=2"]).payload_offset_m == (0.0, 0.0, 0.0)
+    assert parse_mismatch([]) == NO_MISMATCH and NO_MISMATCH.is_none
+
+
+@pytest.mark.parametrize("items, match", [
+    (["mass"], "expected"), (["weight=2"], "expected"), (["mass=x"], "not a number"), (["mass=nan"], "finite"),
+    (["mass=1.1", "mass=1.2"], "twice"), (["payload=1@0,0"], "three numbers"), (["mass=0"], "> 0"),
+    (["payload=-1"], ">= 0"), (["motor=-0.5"], "> 0"),
+])
+def test_bad_mismatch_items_raise(items, match):
+    with pytest.raises(ParameterError, match=match):
+        parse_mismatch(items)
+
+
+def test_the_reduced_model_refuses_a_mismatch():
+    with pytest.raises(ParameterError, match="needs --sim mujoco"):
+        RunSpec(sim="lip", mismatch=ModelMismatch(mass_scale=1.1))
+
+
+mujoco = pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+
+from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation  # noqa: E402
+from robust_ismpc.sim.model import load_robot  # noqa: E402
+from robust_ismpc.sim.scene import LOAD_BODY  # noqa: E402
+
+
+def _sim(mismatch: ModelMismatch) -> MujocoSimulation:
+    return MujocoSimulation(load_robot("g1"), settings=LoopSettings(), mismatch=mismatch)
+
+
+def test_the_simulated_robot_changes_and_the_measurement_keeps_the_model():
+    """Masses scaled and a payload added in the physics; the robot's measured mass and CoM are
+    the model's (the controller does not know), while the physics carries the extra weight."""
+    plain, changed = _sim(NO_MISMATCH), _sim(ModelMismatch(mass_scale=1.1, payload_kg=2.0,
+                                                            payload_offset_m=(0.0, 0.05, 0.0)))
+    assert changed.robot.mass_kg == pytest.approx(plain.robot.mass_kg)
+    np.testing.assert_allclose(changed.robot.com_position(), plain.robot.com_position(), atol=1e-9)
+    ids = changed.robot.robot_body_ids
+    np.testing.assert_allclose(changed.model.body_mass[ids], 1.1 * plain.model.body_mass[ids])
+    load = mujoco.mj_name2id(changed.model, mujoco.mjtObj.mjOBJ_BODY, LOAD_BODY)
+    assert load not in ids and changed.model.body_mass[load] == pytest.approx(2.0)
+    # the feet carry the true weight: scaled robot plus payload
+    for _ in range(20):
+        mujoco.mj_step(changed.model, changed.data)
+    weight = np.sum(changed.model.body_mass[1:]) * 9.81
+    assert weight == pytest.approx((1.1 * plain.robot.mass_kg + 2.0) * 9.81, rel=1e-6)
+
+
+def test_motor_strength_scales_the_torque_the_motors_deliver():
+    from robust_ismpc.sim.whole_body.inverse_dynamics import TorqueControlSettings
+
+    settings = LoopSettings(torque_control=TorqueControlSettings())
+    plain = MujocoSimulation(load_robot("g1"), settings=settings)
+    weak = MujocoSimulation(load_robot("g1"), settings=settings, mismatch=ModelMismatch(motor_strength=0.8))
+    for sim in (plain, weak):
+        sim.data.ctrl[:] = 1.0
+        mujoco.mj_forward(sim.model, sim.data)
+    np.testing.assert_allclose(weak.data.actuator_force, 0.8 * plain.data.actuator_force)
+
+
+def test_a_run_records_its_mismatch_and_the_robust_g1_walks_10_percent_heavier():
+    from robust_ismpc.control.modules import controller_modules
+    from robust_ismpc.core.planner import WalkCommand
+    from robust_ismpc.runs.run import run
+
+    mismatch = ModelMismatch(mass_scale=1.1)
+    result = run(RunSpec(robot="g1", sim="mujoco", modules=controller_modules("robust"), command=WalkCommand(0.2),
+                         duration_s=8.0, mismatch=mismatch))
+    assert result.summary["mismatch"] == mismatch.as_dict()
+    assert not result.summary["fell"], result.summary["failure"]
+    assert result.summary["distance_m"] > 0.6 * 0.2 * (8.0 - 2.6)
+
+
+def test_the_cli_names_the_flag_of_a_bad_mismatch(tmp_path, capsys):
+    from robust_ismpc.cli import main
+
+    assert main(["run", "--mismatch", "mass=1.1", "--duration", "1", "--out", str(tmp_path / "a"), "--quiet"]) == 2
+    assert "needs --sim mujoco" in capsys.readouterr().err
+    assert main(["run", "--sim", "mujoco", "--mismatch", "weight=2", "--duration", "1",
+                 "--out", str(tmp_path / "b"), "--quiet"]) == 2
+    assert "--mismatch 'weight=2'" in capsys.readouterr().err
