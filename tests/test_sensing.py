@@ -133,3 +133,21 @@ def test_a_run_names_its_sensing_in_its_summary():
     result = run(RunSpec(robot="g1", sim="lip", duration_s=0.5, sensing="realistic", seed=3))
     assert result.summary["sensing"] == SENSING_PRESETS["realistic"].as_dict()
     assert result.summary["seed"] == 3
+
+
+def test_soak_and_sweep_pass_their_sensing_to_every_run():
+    from robust_ismpc.experiments.soak import SoakSpec, run_soak
+    from robust_ismpc.experiments.sweep.bisection import Bisection
+    from robust_ismpc.experiments.sweep.config import SweepConfig
+    from robust_ismpc.experiments.sweep.run import _make_trial
+    from robust_ismpc.experiments.sweep.trials import TaskKey
+
+    report, result = run_soak(SoakSpec(duration_s=2.0, sensing="realistic"))
+    assert report["sensing"] == "realistic"
+    assert result.summary["sensing"] == SENSING_PRESETS["realistic"].as_dict()
+    config = SweepConfig(sensing="realistic")
+    assert config.to_dict()["sensing"] == "realistic"
+    trial = _make_trial(config, TaskKey("robust", 0.0, 0.0, "impulse"), Bisection(10.0, 4), (3.0, 0.5))
+    assert trial.sensing == "realistic"
+    with pytest.raises(ParameterError, match="unknown sensing"):
+        SweepConfig(sensing="perfect")

@@ -120,6 +120,12 @@ def robot_help(mujoco_only: bool = False) -> str:
             f"{files}; default g1")
 
 
+def _add_sensing_argument(p) -> None:
+    p.add_argument("--sensing", default="ideal", choices=tuple(SENSING_PRESETS),
+                   help="what the controller reads: ideal (the simulator's true state, the default) or realistic "
+                        "(noise, bias and 10 ms latency; see docs/closed-loop.md)")
+
+
 def _add_output_arguments(p: argparse.ArgumentParser, what: str = "output directory",
                           overwrite_help: str = "allow writing into an existing non-empty --out") -> None:
     """``--out`` (required; ``what`` is its help) and ``--overwrite``."""
@@ -147,9 +153,7 @@ def _add_run_arguments(p: argparse.ArgumentParser, with_controller: bool = True)
     p.add_argument("--delta-max", type=_finite_float("delta-max"), default=None,
                    help="deviation bound Δmax for the ZMP restriction [m/s²] (default: module default)")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (0; also of the sensor noise)")
-    p.add_argument("--sensing", default="ideal", choices=tuple(SENSING_PRESETS),
-                   help="what the controller reads: ideal (the simulator's true state, the default) or realistic "
-                        "(noise, bias and 10 ms latency; see docs/closed-loop.md)")
+    _add_sensing_argument(p)
     p.add_argument("--mismatch", action="append", default=[], metavar="KEY=VALUE",
                    help="mujoco only, repeatable: the simulated robot differs from the controller's model: "
                         "mass=FACTOR (every link), payload=KG[@X,Y,Z] (fixed to the torso, offset from its "
@@ -220,6 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="controller modules (default: all three, the robust controller)")
     p_soak.add_argument("--whole-body", default=None, choices=("servo", "torque"),
                         help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
+    _add_sensing_argument(p_soak)
     _add_output_arguments(p_soak)
     p_soak.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
@@ -290,6 +295,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
     p_sweep.add_argument("--whole-body", default=None, choices=("servo", "torque"),
                         help="mujoco only: torque (inverse-dynamics QP, the default) or servo")
+    _add_sensing_argument(p_sweep)
     p_sweep.add_argument("--workers", type=int, default=None, help="parallel processes (default: CPU count)")
     p_sweep.add_argument("--backend", default="local", help="local (processes) or ray (needs `pip install ray`)")
     _add_output_arguments(p_sweep, overwrite_help="discard an earlier sweep in --out (without it, the same sweep "

@@ -40,7 +40,7 @@ def cmd_soak(args) -> int:
         args.vx = applied["--vx"]
     spec = SoakSpec(robot=args.robot, sim=args.sim, duration_s=60.0 * args.minutes, push_max_n=args.push_max,
                     vx_mps=args.vx if args.vx is not None else DEFAULT_VX_MPS.get(args.sim), seed=args.seed,
-                    modules=modules, whole_body=args.whole_body)
+                    modules=modules, whole_body=args.whole_body, sensing=args.sensing)
     out = _open_out(args)
     for line in warnings:
         _warn(line)
@@ -196,7 +196,7 @@ def cmd_sweep(args) -> int:
         vx_mps=applied["--vx"],
         post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
         iterations=args.iterations, pushed_step=args.pushed_step,
-        seed=args.seed, whole_body=args.whole_body,
+        seed=args.seed, whole_body=args.whole_body, sensing=args.sensing,
     )
     for line in warnings:
         _warn(line)

@@ -49,6 +49,9 @@ class SoakSpec:
     whole_body : str
         MuJoCo only: ``torque`` or ``servo`` (:attr:`~robust_ismpc.runs.spec.RunSpec.whole_body`);
         None is resolved to the default.
+    sensing : str
+        What the controller reads (:attr:`~robust_ismpc.runs.spec.RunSpec.sensing`; ``ideal`` by
+        default).
     """
 
     robot: str = "g1"
@@ -60,9 +63,10 @@ class SoakSpec:
     seed: int = 0
     modules: tuple[str, ...] = MODULES
     whole_body: str | None = None
+    sensing: str = "ideal"
 
     def __post_init__(self) -> None:
-        run = RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body)  # validates both
+        run = RunSpec(robot=self.robot, sim=self.sim, whole_body=self.whole_body, sensing=self.sensing)  # validates
         object.__setattr__(self, "robot", run.robot)
         object.__setattr__(self, "whole_body", run.whole_body)
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
@@ -114,7 +118,8 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
             progress(t_s)
 
     run_spec = RunSpec(robot=spec.robot, sim=spec.sim, modules=tuple(spec.modules), command=WalkCommand(spec.vx_mps),
-                       duration_s=spec.duration_s, forces=pushes, seed=spec.seed, whole_body=spec.whole_body)
+                       duration_s=spec.duration_s, forces=pushes, seed=spec.seed, whole_body=spec.whole_body,
+                       sensing=spec.sensing)
     start = time.perf_counter()
     result = run(run_spec, progress=on_progress)
     wall = time.perf_counter() - start
@@ -124,6 +129,7 @@ def run_soak(spec: SoakSpec, progress=None) -> tuple[dict, object]:
         "robot": spec.robot,
         "sim": spec.sim,
         "whole_body": spec.whole_body,
+        "sensing": spec.sensing,
         "seed": spec.seed,
         "vx_mps": spec.vx_mps,
         "modules": list(spec.modules),

@@ -149,9 +149,14 @@ def _draw_run(axes, trace: Trace, title: str) -> None:
     ax_y.set_xlabel("t [s]")
     w_true = trace["disturbance_true_mps2"]
     w_est = trace["disturbance_est_mps2"]
+    w_meas = trace.channels.get("disturbance_measured_mps2")
+    if w_meas is not None and not np.isfinite(w_meas).any():
+        w_meas = None  # nominal: no observer
     for axis, color in ((0, "tab:blue"), (1, "tab:red")):
         ax_w.plot(t, w_true[:, axis], color=color, lw=0.8, alpha=0.6, label=f"w_{'xy'[axis]} applied")
-        ax_w.plot(t, w_est[:, axis], "--", color=color, lw=1.2, label=f"w_{'xy'[axis]} estimate")
+        if w_meas is not None:
+            ax_w.plot(t, w_meas[:, axis], ":", color=color, lw=0.7, label=f"w_{'xy'[axis]} measured (ŵ)")
+        ax_w.plot(t, w_est[:, axis], "--", color=color, lw=1.2, label=f"w_{'xy'[axis]} planned (w̃)")
     ax_w.set_ylabel("disturbance [m/s²]")
     ax_w.set_xlabel("t [s]")
     ax_w.legend(loc="best", fontsize=7)
@@ -180,10 +185,10 @@ def _draw_overview(ax, trace: Trace, t_start: float) -> None:
 
 def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     """Write the gait figure of one run: top view; x, y over time with ZMP bounds, DCM and
-    feasibility region; applied and estimated disturbance. The title is ``title`` (default: robot
-    / simulator / controller) followed by what happened (:func:`run_outcome`). A run longer than
-    :data:`LONG_RUN_S` is drawn over its last :data:`DETAIL_S` seconds, with the CoM of the whole
-    run (decimated) in an extra panel."""
+    feasibility region; applied, measured (ŵ) and planned (w̃) disturbance. The title is
+    ``title`` (default: robot / simulator / controller) followed by what happened
+    (:func:`run_outcome`). A run longer than :data:`LONG_RUN_S` is drawn over its last
+    :data:`DETAIL_S` seconds, with the CoM of the whole run (decimated) in an extra panel."""
     plt = pyplot()
     t_start, _ = detail_window(trace)
     long_run = len(trace) > 0 and t_start > trace["t_s"][0]

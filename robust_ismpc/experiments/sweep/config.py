@@ -147,6 +147,9 @@ class SweepConfig:
     whole_body : str or None
         MuJoCo only: ``torque`` or ``servo`` (:attr:`~robust_ismpc.runs.spec.RunSpec.whole_body`);
         None is resolved to the default.
+    sensing : str
+        What the controllers read (:attr:`~robust_ismpc.runs.spec.RunSpec.sensing`; ``ideal`` by
+        default); every trial draws its noise from its own seed.
     """
 
     robot: str = "g1"
@@ -163,6 +166,7 @@ class SweepConfig:
     pushed_step: int = 4
     seed: int = 0
     whole_body: str | None = None
+    sensing: str = "ideal"
 
     def __post_init__(self) -> None:
         owner = "SweepConfig"
@@ -197,6 +201,9 @@ class SweepConfig:
         from ...runs.spec import resolve_whole_body
 
         object.__setattr__(self, "whole_body", resolve_whole_body(owner, self.whole_body, self.sim))
+        from ...robots.sensing import sensing_preset
+
+        sensing_preset(self.sensing)  # validates the name
 
     # -----------------------------------------------------------------------------------------
     @property

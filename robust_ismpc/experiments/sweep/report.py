@@ -200,7 +200,8 @@ def format_report(
     start, T_ss = frontier["pushed_step_window_s"]
     md = io.StringIO()
     md.write(f"# Push-recovery sweep: {config.robot} on {config.sim}"
-             + (f" ({config.whole_body} whole-body control)" if config.sim == "mujoco" else "") + "\n\n")
+             + (f" ({config.whole_body} whole-body control)" if config.sim == "mujoco" else "")
+             + (f", {config.sensing} sensing" if config.sensing != "ideal" else "") + "\n\n")
     md.write(f"Command: `{command_line or '(Python API)'}`\n\n")
     if started_at is not None:
         md.write(f"Started: {started_at.isoformat(timespec='seconds')}\n\n")

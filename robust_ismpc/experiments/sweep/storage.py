@@ -213,6 +213,8 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> dict | None:
                 stored = stored_file["config"]
             except (OSError, ValueError, KeyError, TypeError):
                 stored_file, stored = {}, {}
+            if isinstance(stored, dict) and "sensing" not in stored:  # stored before sensing was recorded
+                stored = {**stored, "sensing": "ideal"}
             if stored != wanted:
                 diff = _config_diff(stored, wanted) if isinstance(stored, dict) else ["all"]
                 raise ParameterError(

@@ -69,6 +69,7 @@ class Trial:
     duration_s: float
     seed: int
     whole_body: str | None = None
+    sensing: str = "ideal"
 
     def force_components(self) -> tuple[float, float]:
         """World-frame force (fx, fy) [N] of the push."""
@@ -109,6 +110,7 @@ def run_trial(trial: Trial) -> TrialResult:
     spec = RunSpec(
         robot=trial.robot, sim=trial.sim, modules=trial.modules, command=WalkCommand(trial.vx_mps, 0.0, 0.0),
         duration_s=trial.duration_s, forces=trial.forces(), seed=trial.seed, whole_body=trial.whole_body,
+        sensing=trial.sensing,
     )
     try:
         summary = run(spec).summary
