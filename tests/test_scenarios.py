@@ -271,7 +271,7 @@ def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
     assert comparison["nominal"]["fell"]
     assert not comparison["robust"]["fell"]
     assert comparison["robust"]["scene"]["payloads"][0]["max_swing_rad"] > 0.1  # the bag does swing
-    assert comparison["robust"]["disturbance_estimate_mean_mps2"][1] < -0.3  # towards the bag (-y)
+    assert comparison["robust"]["disturbance_planned_mean_mps2"][1] < -0.3  # towards the bag (-y)
     assert comparison["robust"]["path_deviation"]["max_m"] < 0.03
     assert comparison["robust_survives_nominal_fails"] and comparison["robust_keeps_path"]
     assert comparison["expected_outcome"]

@@ -100,18 +100,32 @@ def push_start_s(forces) -> float | None:
     return min(p.t_start_s for p in pushes) if pushes else None
 
 
+def _mean(values: np.ndarray) -> list[float] | None:
+    """Per-axis mean of ``values`` (n, 2) over its finite rows, rounded; None without one."""
+    finite = values[np.all(np.isfinite(values), axis=1)] if values.size else values
+    return [round(float(v), 5) for v in finite.mean(axis=0)] if len(finite) else None
+
+
+def _last_finite(values: np.ndarray) -> list[float] | None:
+    """The last finite row of ``values`` (n, 2), rounded; None without one."""
+    finite = values[np.all(np.isfinite(values), axis=1)] if values.size else values
+    return [round(float(v), 6) for v in finite[-1]] if len(finite) else None
+
+
 def controller_comparison(result: RunResult, command: WalkCommand, event_s: float | None) -> dict:
     """One controller's entry of ``comparison.json``, the same keys for every comparison.
 
     Who fell (and when), path deviation (:func:`path_deviation` from ``command``), timing
     adaptations before and after the disturbance at ``event_s`` (the hit or the push; None
-    entries without one), the disturbance estimate (mean over the last half of the run and final)
-    against the applied mean, and what the scene items did (``scene``, None without any).
+    entries without one), the disturbance the robust MPC planned with (w̃) and the one its
+    observer measured (ŵ; None for nominal), each as the mean over the last half of the run and
+    the final value, against the applied mean, and what the scene items did (``scene``, None without any).
     """
     s, trace = result.summary, result.trace
     t = trace["t_s"]
     half = t >= 0.5 * (t[-1] if len(t) else 0.0)
-    w_est = trace["disturbance_est_mps2"][half]
+    w_planned = trace["disturbance_est_mps2"][half]
+    w_measured = trace.channels.get("disturbance_measured_mps2", np.full((len(t), 2), np.nan))
     w_true = trace["disturbance_true_mps2"][half]
     entry = {
         "fell": s["fell"], "failure": s["failure"], "duration_s": s["duration_s"],
@@ -120,9 +134,11 @@ def controller_comparison(result: RunResult, command: WalkCommand, event_s: floa
         "modules": s["modules"],
         "timing_adaptations": s["timing_adaptations"], "min_time_to_step_s": s["min_time_to_step_s"],
         "path_deviation": path_deviation(trace, command),
-        "disturbance_estimate_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_est, axis=0)] if w_est.size else None,
-        "disturbance_estimate_final_mps2": s["disturbance_estimate_final"],
-        "disturbance_applied_mean_mps2": [round(float(v), 5) for v in np.nanmean(w_true, axis=0)] if w_true.size else None,
+        "disturbance_planned_mean_mps2": _mean(w_planned),
+        "disturbance_planned_final_mps2": s["disturbance_estimate_final"],
+        "disturbance_measured_mean_mps2": _mean(w_measured[half]),
+        "disturbance_measured_final_mps2": _last_finite(w_measured),
+        "disturbance_applied_mean_mps2": _mean(w_true),
         "event_s": None if event_s is None else round(event_s, 4),
     }
     entry.update(_timing_after(trace, event_s))
