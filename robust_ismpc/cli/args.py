@@ -120,7 +120,8 @@ def robot_help(mujoco_only: bool = False) -> str:
             f"{files}; default g1")
 
 
-def _add_sensing_argument(p) -> None:
+def _add_sensing_argument(p: argparse.ArgumentParser) -> None:
+    """``--sensing``: the sensor model of the runs (:data:`~robust_ismpc.robots.sensing.SENSING_PRESETS`)."""
     p.add_argument("--sensing", default="ideal", choices=tuple(SENSING_PRESETS),
                    help="what the controller reads: ideal (the simulator's true state, the default) or realistic "
                         "(noise, bias and 10 ms latency; see docs/closed-loop.md)")
