@@ -196,6 +196,24 @@ def test_payload_exists_swings_and_is_not_robot_mass(g1_spec: RobotSpec) -> None
     assert not trace.fallen
 
 
+@pytest.mark.parametrize("angle_rad", [0.0, 0.4])
+def test_a_payload_starts_at_its_world_angle_from_a_turned_link(op3_spec: RobotSpec, angle_rad: float) -> None:
+    """OP3's elbow link is turned by the arms-down posture; the bag still starts at its angle from
+    the world's vertical (0: hanging straight down), on the -x side, and a hanging one stays."""
+    from robust_ismpc.sim.scene import set_scene_initial_state
+
+    items = [Payload(mass_kg=0.4, rope_length_m=0.1, link="r_el_link", initial_angle_rad=angle_rad)]
+    model = build_scene(op3_spec, items)
+    data = mujoco.MjData(model)
+    standing_state(op3_spec, model, data)
+    elbow_z = data.xmat[model.body("r_el_link").id].reshape(3, 3)[:, 2]
+    assert abs(elbow_z[2]) < 0.9  # the link's z axis is not the world's: the case under test
+    set_scene_initial_state(model, data, items)
+    body = model.body("disturbance_payload_0").id
+    rope = data.xipos[body] - data.xpos[body]  # pivot to bag
+    np.testing.assert_allclose(rope, [-0.1 * math.sin(angle_rad), 0.0, -0.1 * math.cos(angle_rad)], atol=1e-9)
+
+
 def test_swinging_ball_swings_from_release_angle(op3_spec: RobotSpec) -> None:
     """A ball released at an angle starts on the -x side at the right height and swings to +x."""
     ball = SwingingBall(pivot_m=(0.0, 0.5, 1.0), rope_length_m=0.5, mass_kg=0.5, radius_m=0.05,

@@ -232,17 +232,16 @@ def set_scene_initial_state(model: mujoco.MjModel, data: mujoco.MjData, items: S
             jname = f"{_payload_body_name(index)}_joint"
             half = 0.5 * item.initial_angle_rad
             quat_world = np.array([math.cos(half), 0.0, math.sin(half), 0.0])
-            # Express the world-frame swing in the parent link frame so the rope starts at the angle.
+            # The rope's world orientation is the link's times the joint's: the joint turns the
+            # link's frame back to the world's, then by the swing (q_joint = q_link⁻¹ q_world).
             body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, _payload_body_name(index))
             parent = model.body_parentid[body_id]
             parent_quat = np.empty(4)
             mujoco.mju_mat2Quat(parent_quat, data.xmat[parent])
             inv = np.empty(4)
             mujoco.mju_negQuat(inv, parent_quat)
-            tmp = np.empty(4)
-            mujoco.mju_mulQuat(tmp, inv, quat_world)
             local = np.empty(4)
-            mujoco.mju_mulQuat(local, tmp, parent_quat)
+            mujoco.mju_mulQuat(local, inv, quat_world)
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, jname)
             data.qpos[model.jnt_qposadr[jid] : model.jnt_qposadr[jid] + 4] = local
         elif isinstance(item, SwingingBall):
