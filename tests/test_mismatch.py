@@ -63,6 +63,25 @@ def test_the_simulated_robot_changes_and_the_measurement_keeps_the_model():
     assert weight == pytest.approx((1.1 * plain.robot.mass_kg + 2.0) * 9.81, rel=1e-6)
 
 
+def test_the_feet_weigh_what_the_robot_carries():
+    """Standing 8 s (four weighing time constants), the mass the contact force is divided by
+    goes from the model's to the robot's plus its payload, and stays the model's without one."""
+    from robust_ismpc.estimation.weight import WEIGHING_TIME_CONSTANT_S
+
+    plain, loaded = _sim(NO_MISMATCH), _sim(ModelMismatch(payload_kg=3.3))
+    model_kg = plain.robot.mass_kg
+    assert loaded.weighed_mass_kg == pytest.approx(model_kg)
+    seconds = 4 * WEIGHING_TIME_CONSTANT_S
+    for sim in (plain, loaded):
+        for _ in range(round(seconds / sim.settings.control_period_s)):
+            sim.advance()
+    assert plain.weighed_mass_kg == pytest.approx(model_kg, rel=0.01)
+    assert loaded.weighed_mass_kg == pytest.approx(model_kg + 3.3 * (1 - np.exp(-4)), rel=0.01)
+    measurement, _ = loaded.measure()
+    force = loaded.mean_horizontal_contact_force_n
+    np.testing.assert_allclose(measurement.contact_acc_mps2, force / loaded.weighed_mass_kg)
+
+
 def test_motor_strength_scales_the_torque_the_motors_deliver():
     from robust_ismpc.sim.whole_body.inverse_dynamics import TorqueControlSettings
 
@@ -86,6 +105,26 @@ def test_a_run_records_its_mismatch_and_the_robust_g1_walks_10_percent_heavier()
     assert result.summary["mismatch"] == mismatch.as_dict()
     assert not result.summary["fell"], result.summary["failure"]
     assert result.summary["distance_m"] > 0.6 * 0.2 * (8.0 - 2.6)
+
+
+@pytest.mark.slow
+def test_a_payload_over_the_com_does_not_lead_the_robust_g1_off_its_path():
+    """A 10 % payload over the CoM, 20 s at 0.2 m/s: the robust G1 keeps its path as well as the
+    nominal one (within 1 cm). Divided by the model's mass, the contact force read the gait's own
+    acceleration as a disturbance and the robust G1 ended 17.7 cm off its line (nominal 4.9 cm)."""
+    from robust_ismpc.control.modules import controller_modules
+    from robust_ismpc.core.planner import WalkCommand
+    from robust_ismpc.experiments.scenarios.compare import path_deviation
+    from robust_ismpc.runs.run import run
+
+    command = WalkCommand(0.2)
+    deviation = {}
+    for name in ("nominal", "robust"):
+        result = run(RunSpec(robot="g1", sim="mujoco", modules=controller_modules(name), command=command,
+                             duration_s=20.0, mismatch=ModelMismatch(payload_kg=3.3, payload_offset_m=(0.05, 0.0, 0.0))))
+        assert not result.summary["fell"], result.summary["failure"]
+        deviation[name] = path_deviation(result.trace, command)["max_m"]
+    assert deviation["robust"] <= deviation["nominal"] + 0.01, deviation
 
 
 def test_the_cli_names_the_flag_of_a_bad_mismatch(tmp_path, capsys):

@@ -34,8 +34,10 @@ def test_a_builtin_robot_is_its_file(op3_copy):
         copy.write_text(text)
         builtin, user = load_robot(name), load_robot(str(copy))
         assert user.params() == builtin.params().with_values(name="renamed")
-        assert (user.foot_friction, user.servo_dynamic_feedforward, user.physics_step_s) == (
-            builtin.foot_friction, builtin.servo_dynamic_feedforward, builtin.physics_step_s)
+        assert (user.foot_friction, user.servo_dynamic_feedforward, user.physics_step_s,
+                user.inverse_dynamics_rate_hz) == (
+            builtin.foot_friction, builtin.servo_dynamic_feedforward, builtin.physics_step_s,
+            builtin.inverse_dynamics_rate_hz)
 
 
 @pytest.mark.parametrize("value,message", [
@@ -54,6 +56,22 @@ def test_a_bad_physics_step_is_refused_naming_the_file(op3_copy, value, message)
     with pytest.raises(ParameterError, match=message) as error:
         load_robot(str(path))
     assert str(path) in str(error.value)
+
+
+@pytest.mark.parametrize("value,message", [
+    ('"fast"', "simulation.inverse_dynamics_rate_hz must be a number"),
+    ("-100", "inverse_dynamics_rate_hz must be a finite number > 0"),
+])
+def test_a_bad_inverse_dynamics_rate_is_refused_naming_the_file(op3_copy, value, message):
+    from robust_ismpc.exceptions import ParameterError
+
+    path = op3_copy.parent / "bad_rate.toml"
+    path.write_text(op3_copy.read_text() + f"\n[simulation]\ninverse_dynamics_rate_hz = {value}\n")
+    with pytest.raises(ParameterError, match=message) as error:
+        load_robot(str(path))
+    assert str(path) in str(error.value)
+    path.write_text(op3_copy.read_text() + "\n[simulation]\ninverse_dynamics_rate_hz = 100\n")
+    assert load_robot(str(path)).inverse_dynamics_rate_hz == 100.0
 
 
 def _main(argv, capsys):

@@ -282,7 +282,7 @@ def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
     """paper-push on G1 (torque control), seed 0: the robust robot walks the 10 s through the
     constant push and the sideways impulse at 6 s, the nominal one falls after the impulse.
     (Closed loop, measured: the nominal robot falls standing at 1.15 s, the robust QP turns
-    infeasible at 5.45 s under the constant push.)"""
+    infeasible at 5.91 s under the constant push, at or before the impulse.)"""
     comparison = run_scenario("paper-push", seed=0).comparison
     assert comparison["whole_body"] == "torque"
     assert not comparison["robust"]["fell"]

@@ -76,7 +76,8 @@ _REQUIRED_KEYS = (
 _OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m", "simulation",
                   "left_sole_quat", "right_sole_quat")
 #: Keys of the ``[simulation]`` table and their types.
-_SIMULATION_KEYS = {"foot_friction": float, "servo_dynamic_feedforward": bool, "physics_step_s": float}
+_SIMULATION_KEYS = {"foot_friction": float, "servo_dynamic_feedforward": bool, "physics_step_s": float,
+                    "inverse_dynamics_rate_hz": float}
 
 
 def _toml_number(toml_path: Path, key: str, value: Any) -> float:

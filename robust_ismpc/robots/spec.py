@@ -92,6 +92,10 @@ class RobotSpec:
         model's. The closed loop takes (control period / physics_step_s) physics steps per control
         period and the torque control solves its inverse dynamics at each, so it must divide the
         MPC's default sampling period (0.01 s): 0.002 s for the built-in robots' models.
+    inverse_dynamics_rate_hz : float or None
+        Torque control: how often the inverse-dynamics QP is solved [Hz]; its command is held
+        by the motor drivers in between (:mod:`robust_ismpc.sim.whole_body.motor_command`). The
+        physics step must divide its period. None: at every physics step.
     """
 
     name: str
@@ -117,9 +121,12 @@ class RobotSpec:
     foot_friction: float | None = None
     servo_dynamic_feedforward: bool = False
     physics_step_s: float | None = None
+    inverse_dynamics_rate_hz: float | None = None
 
     def __post_init__(self) -> None:
         owner = f"RobotSpec[{self.name}]"
+        if self.inverse_dynamics_rate_hz is not None:
+            check_positive(owner, inverse_dynamics_rate_hz=self.inverse_dynamics_rate_hz)
         if self.foot_friction is not None:
             check_positive(owner, foot_friction=self.foot_friction)
         if self.physics_step_s is not None:

@@ -152,7 +152,8 @@ def run_mujoco_spec(
     -------
     RunResult
         ``summary`` (``report.summarize``, with ``physics_step_s`` the MuJoCo timestep the run
-        used, plus ``time_per_tick_ms``, the wall time per phase,
+        used and, under torque control, ``inverse_dynamics_rate_hz`` the rate of its QP, plus
+        ``time_per_tick_ms``, the wall time per phase,
         ``cop_outside_s``, the time the measured CoP spent more than :data:`COP_TOLERANCE_M`
         outside the support polygon, and
         ``render_fps`` with a video) and the trace.
@@ -276,6 +277,8 @@ def run_mujoco_spec(
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
     meta["mass_kg"] = mass
     meta["physics_step_s"] = float(sim.model.opt.timestep)
+    if sim.inverse_dynamics is not None:  # the rate the torque control's QP ran at
+        meta["inverse_dynamics_rate_hz"] = 1.0 / (sim.inverse_dynamics_steps * float(sim.model.opt.timestep))
     trace = recorder.finish(controller.plan, meta)
     summary = summarize(trace, fell, failure, duration, wall)
     times = TickTimes(t_meas, t_ctrl, t_ik, t_phys, t_rec, t_render)

@@ -7,9 +7,10 @@ whole-body IK and the actuators. The closed loop that uses it, one control perio
 docs/closed-loop.md describes one cycle.
 
 Actuators, torque control (the default of every run): the actuators of a copy of the model become
-torque motors, driven at every physics step by an inverse-dynamics QP that tracks the reference
-with force feedback (:mod:`robust_ismpc.sim.whole_body.inverse_dynamics`); the IK configuration is its
-posture target.
+torque motors, driven by an inverse-dynamics QP that tracks the reference with force feedback
+(:mod:`robust_ismpc.sim.whole_body.inverse_dynamics`), solved at the robot's inverse-dynamics rate
+and sent as a per-motor command (q, q̇, kp, kd, τ_ff) that the motor drivers apply at every physics
+step (:mod:`robust_ismpc.sim.whole_body.motor_command`); the IK configuration is its posture target.
 
 Servo playback (``whole_body="servo"``): position servos (``ctrl`` = joint target, as in the G1
 and OP3 Menagerie models) receive the IK joint angles plus a static feedforward ``τ_ff / kp``
@@ -33,6 +34,7 @@ import mujoco
 import numpy as np
 
 from ..core.reference import GaitReference, Measurement
+from ..estimation.weight import weigh
 from ..exceptions import ParameterError
 from ..robots.mismatch import NO_MISMATCH, ModelMismatch
 from ..robots.spec import RobotSpec
@@ -45,6 +47,7 @@ from .video import VideoRecorder
 from .whole_body.actuators import ActuatorMap, actuator_torque_limits_nm
 from .whole_body.ik import IkSettings, WholeBodyIk
 from .whole_body.inverse_dynamics import InverseDynamicsQp, TorqueControlSettings
+from .whole_body.motor_command import MotorCommand
 
 logger = logging.getLogger("robust_ismpc")
 
@@ -86,7 +89,9 @@ class LoopSettings:
         does not take the lean the robust plan asks for (docs/scenarios.md).
     torque_control : TorqueControlSettings or None
         Drive the joints with torques from an inverse-dynamics QP
-        (:mod:`robust_ismpc.sim.whole_body.inverse_dynamics`), solved at every physics step, instead of
+        (:mod:`robust_ismpc.sim.whole_body.inverse_dynamics`), solved at the robot's
+        ``inverse_dynamics_rate_hz`` (every physics step by default) and held by the motor drivers
+        in between (:mod:`robust_ismpc.sim.whole_body.motor_command`), instead of
         position targets: the actuators of a copy of the model become torque motors. The IK
         configuration is then the QP's posture reference; ``gravity_feedforward`` and the motor
         gains are unused. None (default): the actuators as the model defines them.
@@ -176,6 +181,19 @@ def soft_servo_warning(spec: RobotSpec, motor_kp: float | None = None) -> str | 
             "use --whole-body torque (the default)")
 
 
+def _inverse_dynamics_steps(spec: RobotSpec, timestep_s: float) -> int:
+    """Physics steps per inverse-dynamics solve: 1 without a rate, else the rate's period over the
+    physics step, which must be a whole number (ParameterError)."""
+    rate = spec.inverse_dynamics_rate_hz
+    if rate is None:
+        return 1
+    steps = 1.0 / (rate * timestep_s)
+    if steps < 1.0 - 1e-9 or abs(steps - round(steps)) > 1e-6:
+        raise ParameterError(f"{spec.name}: the inverse-dynamics period (1 / {rate:g} Hz) must be a whole multiple "
+                             f"of the physics step ({timestep_s:g} s)")
+    return int(round(steps))
+
+
 def initial_state(spec: RobotSpec, model: mujoco.MjModel | None = None) -> tuple[np.ndarray, SolePose, SolePose]:
     """CoM and sole poses of the robot standing at the origin, as given to a controller's reset.
 
@@ -246,6 +264,8 @@ class MujocoSimulation:
         self.forces = ForceSchedule(self.model, disturbances, spec.torso_body)
         self.scene_items = tuple(scene_items)
         self.inverse_dynamics: InverseDynamicsQp | None = None
+        #: Physics steps per inverse-dynamics solve (its command is held in between).
+        self.inverse_dynamics_steps = _inverse_dynamics_steps(spec, timestep)
         if self.settings.torque_control is not None:
             self.inverse_dynamics = InverseDynamicsQp(self.robot, self.actuators, self.settings.torque_control)
         self.reset()
@@ -259,7 +279,10 @@ class MujocoSimulation:
         self._ik_qvel = np.zeros(self.ik.model.nv)
         self._ik_qacc = np.zeros(self.ik.model.nv)
         self._reference: GaitReference | None = None  # the last commanded reference (torque control)
+        self._motor_command: MotorCommand | None = None  # torque control: what the motor drivers hold
+        self._steps_since_command = 0
         self.mean_horizontal_contact_force_n: np.ndarray | None = None  # none before the first period
+        self.weighed_mass_kg = self.robot.mass_kg  # the model's until the feet have weighed the robot
         self._mean_contact_moment_nm: np.ndarray | None = None
         self._previous_momentum: np.ndarray | None = None
         self._targets = self.actuators.targets(self.ik.qpos)
@@ -273,9 +296,17 @@ class MujocoSimulation:
         if self.inverse_dynamics is not None:
             if self._reference is None:  # before the first command: no torque
                 self.data.ctrl[:] = 0.0
-            else:
-                self.data.ctrl[:] = self.inverse_dynamics.torques(
-                    self._reference, self._ik_qpos, self._ik_qvel, self._ik_qacc)
+                return
+            hold = self.inverse_dynamics_steps
+            if self._motor_command is None or self._steps_since_command >= hold:
+                self._motor_command = self.inverse_dynamics.command(
+                    self._reference, self._ik_qpos, self._ik_qvel, self._ik_qacc, hold * float(self.model.opt.timestep))
+                self._steps_since_command = 0
+            self._steps_since_command += 1
+            act = self.actuators
+            self.data.ctrl[:] = self._motor_command.torques(self.data.qpos[act.sim_qpos_index],
+                                                            self.data.qvel[act.sim_dof_index],
+                                                            self.inverse_dynamics.torque_limits_nm)
             return
         act = self.actuators
         targets = self._targets
@@ -328,12 +359,13 @@ class MujocoSimulation:
         """Step the physics over one control period; returns (last applied force (3,) [N], render time [s]).
 
         Also sets :attr:`mean_horizontal_contact_force_n`, the horizontal foot-floor contact
-        force averaged over the physics steps of the period [N], shape (2,).
+        force averaged over the physics steps of the period [N], shape (2,), and updates
+        :attr:`weighed_mass_kg` (:func:`weigh`).
         """
         force = np.zeros(3)
         render_s = 0.0
         motors = not self.actuators.is_position.all()
-        contact_force = np.zeros(2)
+        contact_force = np.zeros(3)
         contact_moment = np.zeros(3)
         for _ in range(self.substeps):
             force = self.forces.apply(self.data, self.data.time)
@@ -343,13 +375,16 @@ class MujocoSimulation:
             # after mj_step the contacts, their forces and the body positions are those of the
             # state the step started from: the forces the step applied, and where
             contacts = self.robot.contacts()
-            contact_force += contacts.horizontal_force_n
+            contact_force += contacts.force_n
             contact_moment += contacts.moment_about(self.robot.com_position())
             if recorder is not None and recorder.due(self.data.time):
                 start = time.perf_counter()
                 recorder.capture(self.data)
                 render_s += time.perf_counter() - start
-        self.mean_horizontal_contact_force_n = contact_force / self.substeps
+        mean_force = contact_force / self.substeps
+        self.mean_horizontal_contact_force_n = mean_force[:2]
+        self.weighed_mass_kg = weigh(self.weighed_mass_kg, float(mean_force[2]), self.robot.mass_kg,
+                                     self.settings.control_period_s)
         self._mean_contact_moment_nm = contact_moment / self.substeps
         return force, render_s
 
@@ -361,14 +396,21 @@ class MujocoSimulation:
         angular momentum over the period minus the mean moment of the contact forces about the
         CoM; the robot's own swinging and spinning are made by the contacts and cancel. It is
         reported as ``(τ_y, -τ_x) / (m h)`` (``Measurement.external_moment_acc_mps2``).
+
+        Both the contact force and the moment are divided by the mass the feet weigh
+        (:attr:`weighed_mass_kg`), not the model's: whatever the robot carries rides on the same
+        contacts, and the LIP the MPC plans with accelerates the CoM by the contact force over the
+        weight those contacts bear.
         """
         moment_acc = None
         robot = self.robot
-        measurement, contacts = robot.measure(mean_horizontal_force_n=self.mean_horizontal_contact_force_n)
+        mass_kg = self.weighed_mass_kg
+        measurement, contacts = robot.measure(mean_horizontal_force_n=self.mean_horizontal_contact_force_n,
+                                              mass_kg=mass_kg)
         momentum = robot.angular_momentum()
         if self._previous_momentum is not None and self._mean_contact_moment_nm is not None:
             torque = (momentum - self._previous_momentum) / self.settings.control_period_s - self._mean_contact_moment_nm
-            moment_acc = np.array([torque[1], -torque[0]]) / (robot.mass_kg * self.spec.com_height_m)
+            moment_acc = np.array([torque[1], -torque[0]]) / (mass_kg * self.spec.com_height_m)
             measurement = replace(measurement, external_moment_acc_mps2=moment_acc)
         self._previous_momentum = momentum
         return measurement, contacts

@@ -453,13 +453,14 @@ class MujocoRobot:
 
     # ------------------------------------------------------------------ measurement
     def measure(self, forward: bool = True, mean_horizontal_force_n: np.ndarray | None = None,
-                external_moment_acc_mps2: np.ndarray | None = None) -> tuple[Measurement, ContactState]:
+                external_moment_acc_mps2: np.ndarray | None = None,
+                mass_kg: float | None = None) -> tuple[Measurement, ContactState]:
         """The controller's measurement and the contact state.
 
         ``contact_acc_mps2`` is the horizontal contact force per unit mass over the control
         period that just ended: ``mean_horizontal_force_n / m`` when given (the simulation
         averages it over its physics steps, :meth:`MujocoSimulation.advance`), else the current
-        contact force's.
+        contact force's; ``m`` is ``mass_kg`` when given (the weighed mass), else the model's.
 
         Parameters
         ----------
@@ -471,6 +472,8 @@ class MujocoRobot:
         external_moment_acc_mps2 : ndarray, shape (2,), optional
             Passed on as the measurement's ``external_moment_acc_mps2``
             (:meth:`~robust_ismpc.sim.loop.MujocoSimulation.measure` computes it).
+        mass_kg : float, optional
+            The mass the contact force accelerates [kg]; the model's when omitted.
         """
         if forward:
             mujoco.mj_forward(self.model, self.data)
@@ -478,7 +481,7 @@ class MujocoRobot:
         contacts = self.contacts()
         zmp = None if contacts.cop_m is None else contacts.cop_m.copy()
         force = contacts.horizontal_force_n if mean_horizontal_force_n is None else mean_horizontal_force_n
-        contact_acc = np.asarray(force, dtype=float)[:2] / self.mass_kg
+        contact_acc = np.asarray(force, dtype=float)[:2] / (self.mass_kg if mass_kg is None else mass_kg)
         measurement = Measurement(com_pos_m=com, com_vel_mps=vel, zmp_m=zmp, contact_acc_mps2=contact_acc,
                                   external_moment_acc_mps2=external_moment_acc_mps2)
         return measurement, contacts

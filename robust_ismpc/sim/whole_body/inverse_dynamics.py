@@ -1,8 +1,9 @@
 r"""Torque control of a full robot: an inverse-dynamics QP that realises the gait reference.
 
-With ``LoopSettings.torque_control`` the joint actuators become torque motors and, at every
-physics step, one QP over the joint accelerations :math:`\ddot q` (floating base included) and
-the two sole wrenches :math:`W_L, W_R` (force and moment about the sole centre, world frame)
+With ``LoopSettings.torque_control`` the joint actuators become torque motors and, at the robot
+file's inverse-dynamics rate (every physics step by default), one QP over the joint
+accelerations :math:`\ddot q` (floating base included) and the two sole wrenches
+:math:`W_L, W_R` (force and moment about the sole centre, world frame)
 
 .. math::
 
@@ -19,7 +20,9 @@ the CoM acceleration (reference acceleration plus PD on the measured CoM), the s
 pose, the root orientation, and a low-weight posture task towards the whole-body IK
 configuration (which carries the arms, the torso and the leg geometry of the reference). Task
 targets are placed relative to the measured stance sole(s), so the drift of the real feet from
-the plan does not enter. The torques of the solution are sent to the motors.
+the plan does not enter. The solution goes to the motors as the robot's own command, per motor
+(q, q̇, kp, kd, τ_ff), which their drivers apply at the physics rate until the next solve
+(:mod:`robust_ismpc.sim.whole_body.motor_command`).
 
 Unlike the position servos playing back the IK joints, this controller moves the centre of
 pressure to keep the CoM on its reference: it is the balance feedback the servo loop lacks
@@ -42,6 +45,7 @@ from ...validation import check_nonnegative
 from ..model import compile_model
 from ..robot import MujocoRobot
 from .actuators import ActuatorMap, actuator_torque_limits_nm
+from .motor_command import MotorCommand, held_command
 
 SIDES = ("left", "right")
 _NO_BOUND = 1e9  # DAQP's stand-in for an infinite row bound
@@ -91,6 +95,9 @@ class TorqueControlSettings:
         cycles in 20 s of undisturbed walking, with it none (docs/closed-loop.md).
     momentum_damping : float
         Rate at which the task damps the centroidal angular momentum [1/s].
+    joint_bandwidth_radps : float
+        ω of the motor drivers' PD around the state the solution reaches when the next command
+        comes (:mod:`robust_ismpc.sim.whole_body.motor_command`) [rad/s]; 0: the torques alone.
     """
 
     com_kp: float = 50.0
@@ -114,6 +121,7 @@ class TorqueControlSettings:
     friction_smoothing_radps: float = 0.02
     momentum_weight: float = 1e4
     momentum_damping: float = 10.0
+    joint_bandwidth_radps: float = 0.0
 
     def __post_init__(self) -> None:
         check_nonnegative("TorqueControlSettings", **{f.name: getattr(self, f.name) for f in fields(self)})
@@ -223,6 +231,7 @@ class InverseDynamicsQp:
         self._contact_upper = np.concatenate([[_NO_BOUND], np.zeros(10)])
         self._jac_com_prev: np.ndarray | None = None
         self._ang_prev: np.ndarray | None = None
+        self._previous_solve_s: float | None = None  # time of the previous solve, for J̇ by differences
         # reference sole velocities of the previous control tick, for the swing acceleration
         self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
         self._foot_acc = {side: np.zeros(3) for side in SIDES}
@@ -233,7 +242,7 @@ class InverseDynamicsQp:
         #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
         #: force then moment about the sole centre), for inspection and tests.
         self.last_qacc: np.ndarray | None = None
-        #: QPs solved so far (one per physics step under torque control).
+        #: QPs solved so far (one per inverse-dynamics period under torque control).
         self.solve_count = 0
         self.last_wrenches: dict[str, np.ndarray] = {}
 
@@ -243,6 +252,21 @@ class InverseDynamicsQp:
         mujoco.mj_jac(m, d, jac[:3], jac[3:], point, self._body[side])
         mujoco.mj_jacDot(m, d, jac_dot[:3], jac_dot[3:], point, self._body[side])
         return jac, jac_dot
+
+    @property
+    def torque_limits_nm(self) -> np.ndarray:
+        """Lower and upper torque limit per motor, shape (nu, 2) [N m], in actuator order."""
+        return self._limits
+
+    def command(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray, ik_qacc: np.ndarray,
+                hold_s: float) -> MotorCommand:
+        """The motor command that holds this state's solution for ``hold_s`` [s], until the next
+        one (:func:`~robust_ismpc.sim.whole_body.motor_command.held_command`); arguments as
+        :meth:`torques`."""
+        tau = self.torques(reference, ik_qpos, ik_qvel, ik_qacc)
+        qacc = np.zeros(len(self._dof)) if self.last_qacc is None else self.last_qacc[self._dof]
+        return held_command(tau, self.data.qpos[self._qpos_index], self.data.qvel[self._dof], qacc,
+                            np.diag(self._M)[self._dof], hold_s, self.settings.joint_bandwidth_radps)
 
     def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
                 ik_qacc: np.ndarray) -> np.ndarray:
@@ -329,7 +353,13 @@ class InverseDynamicsQp:
         # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
         com_vel = jac_com @ qvel
-        jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None else (jac_com - self._jac_com_prev) / m.opt.timestep
+        # J̇ by a backward difference over the time since the previous solve
+        since = None if self._previous_solve_s is None else float(d.time) - self._previous_solve_s
+        self._previous_solve_s = float(d.time)
+        if since is not None and not since > 0:
+            since = None
+        jac_com_dot = np.zeros_like(jac_com) if self._jac_com_prev is None or since is None else (
+            (jac_com - self._jac_com_prev) / since)
         self._jac_com_prev = jac_com
         com_pos, com_vel_ref = _back_in_time(reference.com_pos_m, reference.com_vel_mps, reference.com_acc_mps2, lead)
         com_target = real_anchor + (com_pos - ref_anchor)
@@ -342,7 +372,7 @@ class InverseDynamicsQp:
         if s.momentum_weight > 0:
             ang = np.zeros((3, nv))
             mujoco.mj_angmomMat(m, d, ang, self._root)
-            ang_dot = np.zeros_like(ang) if self._ang_prev is None else (ang - self._ang_prev) / m.opt.timestep
+            ang_dot = np.zeros_like(ang) if self._ang_prev is None or since is None else (ang - self._ang_prev) / since
             self._ang_prev = ang
             w = math.sqrt(s.momentum_weight) / (self.robot.mass_kg * 9.81)
             task_J.append(w * ang)
