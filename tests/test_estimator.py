@@ -167,6 +167,19 @@ def test_with_noisy_sensors_a_moment_is_estimated_like_a_force():
     np.testing.assert_allclose(a.mean(axis=0), w, atol=0.02)
 
 
+def test_the_moment_part_of_the_estimate_is_kept_apart():
+    """A push (the CoM accelerates 0.5 m/s² more than the contacts explain) and a moment of 0.3
+    m/s² on the other axis (the CoM does not accelerate; the contacts' moment says it): ŵ holds
+    both, and its moment part only the moment."""
+    estimator = DisturbanceEstimator(0.03, DT)
+    vel = np.zeros(2)
+    for k in range(100):
+        vel = vel + DT * np.array([0.5, 0.0])
+        estimator.update(k * DT, vel, np.zeros(2), np.array([0.0, 0.3]))
+    np.testing.assert_allclose(estimator.estimate_mps2, [0.5, 0.3], atol=1e-6)
+    np.testing.assert_allclose(estimator.moment_estimate_mps2, [0.0, 0.3], atol=1e-6)
+
+
 def test_with_noisy_sensors_the_estimate_follows_a_step_within_a_quarter_second():
     """The lag the noise costs: 63 % of a step in w within 0.25 s (noise-free: 0.04 s)."""
     step = np.array([1.0, 0.0])

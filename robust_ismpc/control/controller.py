@@ -188,6 +188,9 @@ class IsmpcController:
         plan.step_at(t_s)  # raises PlanError if outside
         self.state = np.vstack([com, vel, com])  # rows x_c, ẋ_c, x_z; columns x, y
         self.disturbance_mps2 = np.zeros(2)
+        # the measured external moment's share of the disturbance, as an LIP acceleration (the
+        # robust controller's observer sets it; GaitReference.disturbance_moment_mps2)
+        self.disturbance_moment_estimate_mps2 = np.zeros(2)
         first = plan.pos_m[1]
         other = 2.0 * plan.pos_m[0] - first  # the other foot, mirrored about the midpoint
         first_is_left = plan.side[1] == LEFT
@@ -426,4 +429,8 @@ class IsmpcController:
             step_index=int(j),
             time_to_step_s=max(0.0, float(touchdown - t_next)) if swinging else 0.0,
             disturbance_mps2=self.disturbance_mps2.copy(),
+            # the part of w̃ the measured moment explains, the rest a force
+            disturbance_moment_mps2=np.clip(self.disturbance_moment_estimate_mps2,
+                                            np.minimum(self.disturbance_mps2, 0.0),
+                                            np.maximum(self.disturbance_mps2, 0.0)),
         )

@@ -270,6 +270,7 @@ class RobustIsmpcController(IsmpcController):
         w_hat = self.observer.update(t_s, measurement.com_vel_mps, measurement.contact_acc_mps2,
                                      measurement.external_moment_acc_mps2)
         self.disturbance_estimate_mps2 = w_hat
+        self.disturbance_moment_estimate_mps2 = self.observer.moment_estimate_mps2.copy()
         self.persistent_disturbance_mps2 = self.persistence.update(w_hat)
         # the fresh part, expected to decay with transient_time_constant_s; w̃ follows in _mpc_state
         persistent = self.persistent_disturbance_mps2

@@ -113,7 +113,12 @@ class GaitReference:
     disturbance_mps2 : ndarray, shape (2,)
         Disturbance (x, y) [m/s^2] the plan was made for, as an acceleration of the CoM (the
         estimate ŵ of the robust controller; zero for the nominal one). A whole-body layer
-        with torque feedforward realises ``com_acc_mps2`` with the force ``m ŵ`` acting.
+        with torque feedforward realises ``com_acc_mps2`` with that disturbance acting.
+    disturbance_moment_mps2 : ndarray, shape (2,)
+        The part of ``disturbance_mps2`` that is an external moment about the CoM (a load
+        hanging off an arm, a payload off-centre), as the LIP acceleration ``(τ_y, -τ_x) / (m h)``
+        [m/s^2]; the rest is a force. Each component lies between 0 and that of
+        ``disturbance_mps2``.
     """
 
     t_s: float
@@ -128,3 +133,4 @@ class GaitReference:
     step_index: int
     time_to_step_s: float
     disturbance_mps2: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    disturbance_moment_mps2: np.ndarray = field(default_factory=lambda: np.zeros(2))

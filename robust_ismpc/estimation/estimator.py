@@ -235,7 +235,9 @@ class DisturbanceEstimator:
     :math:`w_k`. Nothing else enters: a robot's own swinging and spinning move its centre of
     pressure, not its CoM's acceleration, so undisturbed the estimate stays near zero. The
     estimate :math:`\hat w` is :math:`w_k` low-pass filtered with time constant
-    ``time_constant_s``.
+    ``time_constant_s``; :attr:`moment_estimate_mps2` is the moment's part of it, filtered alike
+    (a whole body needs to know which part of the disturbance is a moment: it moves the centre of
+    pressure without pushing the CoM).
 
     Parameters
     ----------
@@ -260,6 +262,7 @@ class DisturbanceEstimator:
     def reset(self) -> None:
         """Forget the previous measurement; the estimate restarts from zero."""
         self.estimate_mps2 = np.zeros(2)
+        self.moment_estimate_mps2 = np.zeros(2)
         self._w = np.zeros(2)
         self._previous: tuple[float, np.ndarray] | None = None  # time, filtered velocity
 
@@ -301,6 +304,7 @@ class DisturbanceEstimator:
             raw = self._w
         alpha = period / (self.time_constant_s + period)
         self.estimate_mps2 = self.estimate_mps2 + alpha * (raw - self.estimate_mps2)
+        self.moment_estimate_mps2 = self.moment_estimate_mps2 + alpha * (moment_acc - self.moment_estimate_mps2)
         return self.estimate_mps2.copy()
 
 

@@ -49,7 +49,8 @@ class RobotSpec:
         Body carrying the free joint (floating base).
     torso_body : str
         Body whose orientation the whole-body IK keeps level (pelvis or torso); pushes are
-        applied to it by default.
+        applied to it by default, and the inverse dynamics takes the estimated external
+        disturbance to act on it.
     left_foot, right_foot : str
         Names of the foot frames in the model.
     foot_frame_type : str

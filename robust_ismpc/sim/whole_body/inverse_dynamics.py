@@ -178,6 +178,15 @@ class InverseDynamicsQp:
     objects of the scene (a bag hanging from an arm, a ball), which reach it only through the
     disturbance estimate of the reference.
 
+    That estimate ``w`` (per unit mass, the LIP's) acts on the torso body: the part the measured
+    external moment explains (``reference.disturbance_moment_mps2``) as the moment
+    ``(τ_y, -τ_x) = m h w_moment``, which moves the centre of pressure without pushing the CoM,
+    and the rest as a force ``m w_force`` applied at the CoM's height. Pushes and carried loads
+    act on the trunk, and the joints must carry them from there. (As a uniform field on every
+    link, the force the legs and arms would get for free: under a 26 N forward push on G1 the CoM
+    accelerated 0.1 m/s² more than planned; and a payload's weight off-centre, a moment, taken as
+    a force pushed the robust G1 off its path. docs/closed-loop.md.)
+
     Parameters
     ----------
     robot : MujocoRobot
@@ -213,6 +222,8 @@ class InverseDynamicsQp:
         self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
         nv = model.nv
         self._M = np.zeros((nv, nv))
+        self._jac_torso = np.zeros((3, nv))
+        self._jac_torso_rot = np.zeros((3, nv))
         # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
         # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
@@ -295,9 +306,19 @@ class InverseDynamicsQp:
         # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
         jac_com = np.zeros((3, nv))
         mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
-        # the disturbance the plan was made for acts like a uniform field on the whole robot
-        disturbance = np.array([*reference.disturbance_mps2[:2], 0.0])
-        bias = d.qfrc_bias - d.qfrc_passive - self.robot.mass_kg * (jac_com.T @ disturbance)
+        # the disturbance the plan was made for, on the torso: its moment part as a moment
+        # (τ_y, -τ_x) = m h w_moment, the rest as a force m w_force at the CoM's height
+        bias = d.qfrc_bias - d.qfrc_passive
+        if np.any(reference.disturbance_mps2):
+            moment = np.asarray(reference.disturbance_moment_mps2, dtype=float)[:2]
+            force = np.asarray(reference.disturbance_mps2, dtype=float)[:2] - moment
+            torso = self.robot.torso_id
+            point = np.array([*d.xipos[torso][:2], d.subtree_com[self._root][2]])
+            mujoco.mj_jac(m, d, self._jac_torso, self._jac_torso_rot, point, torso)
+            mass_kg = self.robot.mass_kg
+            wrench_force = mass_kg * np.array([force[0], force[1], 0.0])
+            wrench_moment = mass_kg * self.robot.spec.com_height_m * np.array([-moment[1], moment[0], 0.0])
+            bias = bias - self._jac_torso.T @ wrench_force - self._jac_torso_rot.T @ wrench_moment
         qvel = d.qvel
         feet = {"left": reference.left_foot, "right": reference.right_foot}
         if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
