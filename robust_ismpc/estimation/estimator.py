@@ -235,9 +235,10 @@ class DisturbanceEstimator:
     :math:`w_k`. Nothing else enters: a robot's own swinging and spinning move its centre of
     pressure, not its CoM's acceleration, so undisturbed the estimate stays near zero. The
     estimate :math:`\hat w` is :math:`w_k` low-pass filtered with time constant
-    ``time_constant_s``; :attr:`moment_estimate_mps2` is the moment's part of it, filtered alike
-    (a whole body needs to know which part of the disturbance is a moment: it moves the centre of
-    pressure without pushing the CoM).
+    ``time_constant_s``; :attr:`moment_estimate_mps2` is the measured moment alone, low-pass
+    filtered with the same time constant (not through the noise filter, which estimates the sum):
+    a whole body needs to know which part of the disturbance is a moment, since it moves the
+    centre of pressure without pushing the CoM.
 
     Parameters
     ----------
