@@ -24,6 +24,24 @@ def test_short_soak_walks_and_reports_memory():
     assert len(report["rss_mb"]) >= 2 and report["trace_mb"] > 0
 
 
+def test_the_default_push_moves_a_standing_dcm_by_half_the_sole():
+    """The default largest push: J/(m η) = w/2 for a 0.1 s push, on every built-in robot."""
+    import math
+
+    import numpy as np
+
+    from robust_ismpc.experiments.soak import PUSH_DURATION_S, default_push_max_n
+    from robust_ismpc.runs.spec import gait_params
+
+    for robot in ("g1", "op3", "nao", "hrp4"):
+        params = gait_params(robot, "lip")
+        impulse = default_push_max_n(params) * PUSH_DURATION_S
+        assert impulse / (params.mass_kg * math.sqrt(9.81 / params.com_height_m)) == pytest.approx(
+            0.5 * params.sole_width_m)
+    pushes = random_pushes(SoakSpec(duration_s=600.0), np.random.default_rng(0))
+    assert max(math.hypot(p.fx_n, p.fy_n) for p in pushes) <= default_push_max_n(gait_params("g1", "lip"))
+
+
 def test_bad_soak_spec():
     """Bad durations and intervals raise ParameterError."""
     with pytest.raises(ParameterError):
@@ -55,8 +73,8 @@ def test_soak_speed_defaults_per_simulator_and_validates():
 @pytest.mark.slow
 def test_ten_minute_g1_mujoco_soak():
     """10 simulated minutes of the robust controller on G1 in MuJoCo (0.1 m/s) with random pushes
-    up to 8 N: no fall, no infeasible QP, resident memory flat after the first minute (the
-    samples from 60 s on may differ by the trace buffers only)."""
+    up to the default (33 N, soak.default_push_max_n): no fall, no infeasible QP, resident memory
+    flat after the first minute (the samples from 60 s on may differ by the trace buffers only)."""
     pytest.importorskip("mujoco")
     report, _ = run_soak(SoakSpec(robot="g1", sim="mujoco", duration_s=600.0, seed=0))
     assert report["fell"] is False and report["failure"] is None

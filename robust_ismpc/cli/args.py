@@ -217,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     p_soak.add_argument("--minutes", type=_positive_float("minutes", MAX_SIM_DURATION_S / 60, "minutes"), default=10.0,
                         help=f"simulated minutes (10; at most {MAX_SIM_DURATION_S / 60:g})")
     p_soak.add_argument("--push-max", type=_finite_float("push-max"), default=None,
-                        help="largest push [N] (default 8 N scaled by robot mass)")
+                        help="largest push [N] (default: the 0.1 s push that moves the DCM by half the sole width, docs/results.md)")
     p_soak.add_argument("--vx", type=_finite_float("vx"), default=None,
                         help="forward velocity command [m/s] (0.2 on the LIP, 0.1 in MuJoCo)")
     p_soak.add_argument("--seed", type=_seed, default=0, help="random seed (0)")
@@ -309,12 +309,18 @@ def build_parser() -> argparse.ArgumentParser:
                              "(docs/robots.md).")
     robot_sub = p_robot.add_subparsers(dest="robot_command", parser_class=_Parser)
     p_init = robot_sub.add_parser(
-        "init", help="draft a robot file from an MJCF scene (robot and floor)",
-        description="Find the floating base, the feet, the soles, the leg joints and a bent-knee standing posture "
-        "(whole-body IK) in MODEL, measure the swing-leg CoP gain, and write a commented robot file.")
-    p_init.add_argument("model", help="MJCF scene: the robot with a floor")
+        "init", help="draft a robot file from a URDF, an MJCF robot or an MJCF scene (robot and floor)",
+        description="For a URDF or an MJCF robot without floor or floating base, first write a walking scene next "
+        "to the robot file (free joint, floor, light, torque motors, physics step; docs/robots.md). Then find the "
+        "floating base, the feet, the soles, the leg joints and a bent-knee standing posture (whole-body IK), "
+        "measure the standing centre of pressure (a jittery one gets box soles in a scene written here, a warning "
+        "otherwise) and the swing-leg CoP gain, and write a commented robot file.")
+    p_init.add_argument("model", help="URDF, MJCF robot, or MJCF scene (the robot with a floor)")
+    p_init.add_argument("--package-dir", action="append", default=[], metavar="DIR",
+                        help="folder searched for a URDF's package:// paths (repeatable; the folders above the "
+                        "URDF are searched too)")
     p_init.add_argument("--out", required=True, help="robot file to write (.toml)")
-    p_init.add_argument("--name", default=None, help="robot name (default: the model's folder name)")
+    p_init.add_argument("--name", default=None, help="robot name (default: the robot file's name for a URDF or an MJCF robot, the scene's folder name for a scene)")
     p_init.add_argument("--left-foot", default=None, help="left foot body (default: found)")
     p_init.add_argument("--right-foot", default=None, help="right foot body (default: found)")
     p_init.add_argument("--no-calibrate", action="store_true", help="skip the swing-leg CoP gain calibration")

@@ -12,15 +12,20 @@ import math
 
 import numpy as np
 
+from ..core.params import GRAVITY_MPS2
 from ..core.planner import WalkCommand, command_limits
 from ..core.reference import FootReference, GaitReference, Support
 from ..robots import RobotSpec
 from ..runs.run import run
 from ..runs.spec import RunResult, RunSpec
+from ..sim.diagnostics import ModelDiagnostics, likeliest_causes
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
 from ..sim.model import compile_model, load_robot
 from ..sim.model_checks import physics_step_warning
 from ..sim.whole_body.inverse_dynamics import TorqueControlSettings
+
+#: Time the standing robot is given to settle before its CoP jitter counts [s].
+SETTLE_S = 0.2
 
 
 def still_reference(t_s: float, com_pos_m: np.ndarray, left, right) -> GaitReference:
@@ -46,24 +51,29 @@ def stand(spec: RobotSpec, duration_s: float = 5.0) -> dict:
     -------
     dict
         ``stood`` (no fall), ``fell_at_s``, ``com_drift_m`` (largest horizontal distance of the
-        CoM from where it started), ``com_sag_m`` (largest drop of the CoM).
+        CoM from where it started), ``com_sag_m`` (largest drop of the CoM) and ``diagnostics``
+        (:meth:`~robust_ismpc.sim.diagnostics.ModelDiagnostics.summary`; the CoP jitter after the
+        first :data:`SETTLE_S`).
     """
     sim = MujocoSimulation(spec, settings=LoopSettings(torque_control=TorqueControlSettings(),
                                                        foot_friction=spec.foot_friction))
     com0, left, right = initial_state(spec)
     period = sim.settings.control_period_s
+    diagnostics = ModelDiagnostics(sim.model, sim.robot.robot_body_ids, spec.mass_kg * GRAVITY_MPS2)
     drift, sag, fell_at = 0.0, 0.0, None
     for _ in range(int(round(duration_s / period))):
-        measurement, _ = sim.measure()
+        measurement, contacts = sim.measure()
         sim.command(still_reference(float(sim.data.time) + period, com0, left, right))
         sim.advance()
         com = np.asarray(measurement.com_pos_m, dtype=float)
+        diagnostics.update(sim.data, com[:2], contacts.cop_m, sim.robot.support_polygon(contacts))
         drift = max(drift, float(np.linalg.norm(com[:2] - com0[:2])))
         sag = max(sag, float(com0[2] - com[2]))
         if sim.has_fallen():
             fell_at = float(sim.data.time)
             break
-    return {"stood": fell_at is None, "fell_at_s": fell_at, "com_drift_m": round(drift, 4), "com_sag_m": round(sag, 4)}
+    return {"stood": fell_at is None, "fell_at_s": fell_at, "com_drift_m": round(drift, 4), "com_sag_m": round(sag, 4),
+            "diagnostics": diagnostics.summary(period, skip_ticks=int(round(SETTLE_S / period)))}
 
 
 def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,
@@ -74,7 +84,8 @@ def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,
     ``vx_mps`` defaults to half the forward speed its steps allow. Returns the report (``stand``,
     ``walk``: fell, failure, distance, steps, infeasible QPs; ``physics_step_s``, the MuJoCo
     timestep used; ``warnings``, e.g. a physics step coarse for torque control,
-    :func:`~robust_ismpc.sim.model_checks.physics_step_warning`) and the walk's run result.
+    :func:`~robust_ismpc.sim.model_checks.physics_step_warning`; ``causes``, when the check
+    failed, :func:`failure_causes`) and the walk's run result.
     """
     spec = load_robot(robot)
     params = spec.params()
@@ -92,4 +103,16 @@ def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,
                                               "qp_infeasible_count", "cop_outside_s") if key in s}
     report["walk"]["vx_mps"] = round(vx, 3)
     report["passed"] = bool(report["stand"]["stood"] and not s["fell"] and s["qp_infeasible_count"] == 0)
+    report["causes"] = [] if report["passed"] else failure_causes(report["stand"]["diagnostics"],
+                                                                  s.get("model_diagnostics"), spec.sole_width_m)
     return report, result
+
+
+def failure_causes(standing: dict, walking: dict | None, sole_width_m: float) -> list[str]:
+    """What the stand and the walk measured that can make a robot fall, likeliest first
+    (:func:`~robust_ismpc.sim.diagnostics.likeliest_causes`), each sentence prefixed with when;
+    the CoP jitter is the stand's only (the CoP moves while walking)."""
+    causes = [f"standing: {c}" for c in likeliest_causes(standing, sole_width_m)]
+    if walking:
+        causes += [f"walking: {c}" for c in likeliest_causes(dict(walking, cop_jitter_m=None), sole_width_m)]
+    return causes

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..control.modules import MODULES
+from ..core.params import RobotParams
 from ..core.planner import WalkCommand
 from ..exceptions import ParameterError
 from ..runs.forces import ForceWindow
@@ -23,6 +24,8 @@ from ..runs.spec import RunSpec, gait_params
 
 #: Default forward speed of a soak per simulator [m/s].
 DEFAULT_VX_MPS = {"lip": 0.2, "mujoco": 0.1}
+#: Duration of a soak push [s].
+PUSH_DURATION_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -36,9 +39,8 @@ class SoakSpec:
     duration_s : float
         Simulated time [s].
     push_max_n : float or None
-        Largest push force [N] (0.1 s pushes); None: 8 N scaled by the robot mass relative to
-        the G1's 33.3 kg, inside the robust controller's smallest push frontier over directions
-        and gait phases (docs/sweeps.md).
+        Largest push force [N] (pushes of :data:`PUSH_DURATION_S`); None:
+        :func:`default_push_max_n` of the robot.
     push_interval_s : tuple of float
         Range of the time between pushes [s].
     vx_mps : float or None
@@ -82,16 +84,27 @@ class SoakSpec:
             raise ParameterError(f"push_max_n must be a finite number >= 0, got {self.push_max_n!r}")
 
 
+def default_push_max_n(params: RobotParams) -> float:
+    """The largest push of a soak when none is given [N]: the push of :data:`PUSH_DURATION_S`
+    whose impulse J moves the DCM by half the sole's width, J/(m η) = w/2. Such a push leaves a
+    standing robot's capture point on its sole, where its ankles alone can hold it; walking, the
+    controller must hold it at any phase and in any direction. 33 N on the G1 (3.3 N s), 0.44 of
+    its smallest push frontier in MuJoCo and 0.82 of its smallest on the reduced model
+    (docs/sweeps.md); 6.9 N on the OP3."""
+    return params.mass_kg * params.eta * 0.5 * params.sole_width_m / PUSH_DURATION_S
+
+
 def random_pushes(spec: SoakSpec, rng: np.random.Generator) -> tuple[ForceWindow, ...]:
-    """0.1 s pushes of random direction and magnitude, at random intervals, after 5 s of walking."""
-    mass = gait_params(spec.robot, "lip").mass_kg
-    push_max = spec.push_max_n if spec.push_max_n is not None else 8.0 * mass / 33.3
+    """Pushes of :data:`PUSH_DURATION_S`, of random direction and magnitude, at random
+    intervals, after 5 s of walking."""
+    params = gait_params(spec.robot, "lip")
+    push_max = spec.push_max_n if spec.push_max_n is not None else default_push_max_n(params)
     pushes = []
     t = 5.0 + rng.uniform(*spec.push_interval_s)
     while t < spec.duration_s - 3.0:
         angle = rng.uniform(0.0, 2 * math.pi)
         magnitude = rng.uniform(0.0, push_max)
-        pushes.append(ForceWindow(magnitude * math.cos(angle), magnitude * math.sin(angle), t, t + 0.1))
+        pushes.append(ForceWindow(magnitude * math.cos(angle), magnitude * math.sin(angle), t, t + PUSH_DURATION_S))
         t += rng.uniform(*spec.push_interval_s)
     return tuple(pushes)
 

@@ -33,9 +33,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..control.walk import make_controller, start_walk
+from ..core.params import GRAVITY_MPS2
 from ..estimation.estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
 from ..robots.sensing import Sensors, sensing_preset
+from ..sim.diagnostics import ModelDiagnostics
 from ..sim.forces import Force
 from ..sim.instability import simulation_failure
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
@@ -154,6 +156,9 @@ def run_mujoco_spec(
         ``summary`` (``report.summarize``, with ``physics_step_s`` the MuJoCo timestep the run
         used and, under torque control, ``inverse_dynamics_rate_hz`` the rate of its QP, plus
         ``time_per_tick_ms``, the wall time per phase,
+        ``model_diagnostics``, what the run measured of the model's defects
+        (:meth:`~robust_ismpc.sim.diagnostics.ModelDiagnostics.summary`: self-contacts, joints at
+        their torque or range limits, CoP jitter, the CoM outside the soles),
         ``cop_outside_s``, the time the measured CoP spent more than :data:`COP_TOLERANCE_M`
         outside the support polygon, and
         ``render_fps`` with a video) and the trace.
@@ -191,6 +196,7 @@ def run_mujoco_spec(
                           mismatch=spec.mismatch)
     monitor = SceneMonitor(sim.model, scene_items) if scene_items else None
     mass = sim.robot.mass_kg
+    diagnostics = ModelDiagnostics(sim.model, sim.robot.robot_body_ids, mass * GRAVITY_MPS2)
     robot = sim.robot
 
     n_ticks = int(math.floor(spec.duration_s / dt + 1e-9))
@@ -234,6 +240,7 @@ def run_mujoco_spec(
                 break
             if monitor is not None:
                 monitor.update(sim.data, float(sim.data.time))
+            diagnostics.update(sim.data, measurement.com_pos_m[:2], contacts.cop_m, polygon)
             e = time.perf_counter()
 
             zmp = measurement.zmp_m if measurement.zmp_m is not None else np.full(2, np.nan)
@@ -284,6 +291,7 @@ def run_mujoco_spec(
     times = TickTimes(t_meas, t_ctrl, t_ik, t_phys, t_rec, t_render)
     summary["time_per_tick_ms"] = times.per_tick_ms(ticks)
     summary["cop_outside_s"] = round(outside_ticks * dt, 4)
+    summary["model_diagnostics"] = diagnostics.summary(dt)
     if monitor is not None:
         summary["scene"] = monitor.summary()
     if video is not None:

@@ -157,6 +157,13 @@ def _points(model, data, geoms, down: np.ndarray) -> np.ndarray:
     return np.vstack([_geom_points(model, data, g, down) for g in geoms])
 
 
+def lowest_z(model: mujoco.MjModel, data: mujoco.MjData, geoms) -> float:
+    """The lowest world z of ``geoms`` in the posture of ``data`` (after kinematics) [m]; inf
+    without geoms."""
+    points = _points(model, data, list(geoms), np.array([0.0, 0.0, -1.0]))
+    return float(points[:, 2].min()) if len(points) else math.inf
+
+
 def find_feet(model: mujoco.MjModel, data: mujoco.MjData, root: int) -> tuple[int, int]:
     """The feet (left: +y of the root frame): on each side the foot whose floor geometry reaches
     lowest, in the posture of ``data`` (after kinematics).

@@ -28,6 +28,7 @@ defaults, spelled out.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -333,9 +334,12 @@ def _comment(text: str, prefix: str = "# ") -> list[str]:
     return textwrap.wrap(text, 100, initial_indent=prefix, subsequent_indent=prefix)
 
 
-def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float | None = None) -> str:
+def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float | None = None,
+                    scene_additions: Sequence[str] = ()) -> str:
     """The robot file of ``draft`` as commented TOML; ``model`` relative to ``out_path``'s folder,
-    or to an installed package's folder when the model lives in one."""
+    or to an installed package's folder when the model lives in one. ``scene_additions``: what
+    the scene writer added to a description (:attr:`~robust_ismpc.sim.description.WalkingScene.additions`),
+    listed in the comments."""
     import importlib.util
     import os
 
@@ -354,6 +358,10 @@ def robot_file_text(draft: RobotDraft, out_path: Path, swing_cop_gain_s2: float 
         f"# {draft.name}: drafted by `ismpc robot init` from {draft.model_path.name}. Format: docs/robots.md.",
         "# Check it with `ismpc robot check THIS_FILE --out DIR` before you rely on it.",
     ]
+    if scene_additions:
+        lines += [f"# The model is the walking scene `ismpc robot init` wrote from {scene_additions[0]}; it added",
+                  "# (see the comments at the top of the scene to change them):"]
+        lines += [line for text in scene_additions[1:] for line in _comment(f"- {text}", "#   ")]
     if draft.placeholder_bodies:
         lines += _comment(f"WARNING: {len(draft.placeholder_bodies)} bodies have an inertia their geometry cannot "
                           f"hold (placeholders?); their mass counts in the robot's {draft.mass_kg:.2f} kg. Fix them "
