@@ -129,7 +129,7 @@ def test_a_foot_touching_through_a_mesh_gets_box_soles_in_a_scene_written_here(t
 
 def test_a_users_scene_with_a_jittery_foot_gets_the_figure_and_the_box_to_add(tmp_path, capsys):
     """A scene that is the user's own (floor and free joint present) is not rewritten: init warns
-    with the jitter and the geom to add to each foot."""
+    with the jitter and the geom to add to each foot; `robot check` fails, the jitter first."""
     urdf = urdf_biped(tmp_path / "site", foot="mesh")
     scene = write_walking_scene(urdf, tmp_path / "mine" / "scene.xml").path
     out = tmp_path / "robots" / "biped.toml"
@@ -138,6 +138,14 @@ def test_a_users_scene_with_a_jittery_foot_gets_the_figure_and_the_box_to_add(tm
     assert "the centre of pressure jumps by" in err
     assert '<geom name="l_foot_sole" type="box"' in err and '<geom name="r_foot_sole" type="box"' in err
     assert not out.with_suffix(".xml").exists()
+    # unchanged, the robot does not fall standing but drifts, and its walk does not get a step in
+    # (Talos on its ankle meshes, issue 31): the check says so and names the jitter first
+    assert main(["robot", "check", str(out), "--out", str(tmp_path / "check"), "--walk-duration", "2"]) == 3
+    printed = capsys.readouterr().out
+    assert "stand DRIFTED" in printed
+    report = json.loads((tmp_path / "check" / "check.json").read_text())
+    assert report["stand"]["fell_at_s"] is None and report["stand"]["com_drift_m"] > 0.5 * BIPED_SOLE_M[1]
+    assert report["causes"][0].startswith("standing: the centre of pressure jumps by")
 
 
 def test_a_description_facing_minus_x_is_turned_to_face_x(tmp_path):

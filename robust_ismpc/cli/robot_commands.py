@@ -64,7 +64,10 @@ def _robot_check(args) -> int:
     atomic_write_json(out / "check.json", report)
     _write_run(result, out, title=f"{report['robot_name']}: walk of `ismpc robot check`")
     stand, walk = report["stand"], report["walk"]
-    held = "held" if stand["stood"] else f"FELL at {stand['fell_at_s']:.2f} s"
+    if stand["fell_at_s"] is not None:
+        held = f"FELL at {stand['fell_at_s']:.2f} s"
+    else:
+        held = "held" if stand["stood"] else "DRIFTED (the CoM moved more than half a sole's width)"
     print(f"{report['robot_name']}: stand {held} "
           f"(CoM drift {100 * stand['com_drift_m']:.1f} cm); walk at {walk['vx_mps']} m/s "
           f"{'FELL: ' + str(walk['failure']) if walk['fell'] else 'walked'} ({walk['distance_m']:.2f} m, "

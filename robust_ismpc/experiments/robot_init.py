@@ -142,8 +142,11 @@ def init_robot(model: str | Path, out: str | Path, name: str | None = None, left
     for contact in result.self_contacts:
         a, b = contact["bodies"]
         result.warnings.append(f"self-contact in the standing posture: {a} touches {b} ({contact['max_force_n']:.1f} N)")
-    if not standing["stood"]:
+    if standing["fell_at_s"] is not None:
         result.warnings.append(f"the drafted robot fell at {standing['fell_at_s']:.2f} s standing still; "
+                               f"`ismpc robot check {out}` says why")
+    elif not standing["stood"]:
+        result.warnings.append(f"standing still, the drafted robot's CoM drifted {100 * standing['com_drift_m']:.1f} cm; "
                                f"`ismpc robot check {out}` says why")
     if calibrate:
         result.swing_cop_gain_s2 = _calibrate(out, result.warnings)
