@@ -28,12 +28,16 @@ def path_deviation(trace, command: WalkCommand) -> dict:
 
     The raw CoM sways by about a foot spacing every stride, so the deviation is also given for the
     CoM averaged over a sliding window of one stride (two steps): that is the "path" of Fig. 2.
+    The windows start at the walk's first touchdown or later: before it the robot stands and
+    shifts its weight onto its first stance foot, which an average over that time reads as a
+    lateral offset of the path (the undisturbed G1: 4.8 cm) while the robot is on its line.
 
     Returns
     -------
     dict
         ``max_m``, ``final_m`` (stride-averaged, absolute), ``final_signed_m`` (+ left),
-        ``raw_max_m`` (raw CoM) [m]; None entries for a run shorter than one stride.
+        ``raw_max_m`` (raw CoM) [m]; None entries for a run that did not walk one stride after
+        its first touchdown.
     """
     com = trace["com_m"]
     t = trace["t_s"]
@@ -43,18 +47,21 @@ def path_deviation(trace, command: WalkCommand) -> dict:
     normal = np.array([-math.sin(heading), math.cos(heading)])
     lateral = (com - com[0]) @ normal
     dt = float(t[1] - t[0])
-    periods = np.diff(trace.footstep_touchdown_s[2:])
+    touchdowns = np.asarray(trace.footstep_touchdown_s, dtype=float)
+    periods = np.diff(touchdowns[2:])
     stride = 2.0 * float(np.median(periods)) if periods.size else 1.0
     n = max(1, int(round(stride / dt)))
-    if len(lateral) < n:
-        return {"max_m": None, "final_m": None, "final_signed_m": None,
-                "raw_max_m": round(float(np.max(np.abs(lateral))), 5)}
-    averaged = np.convolve(lateral, np.ones(n) / n, mode="valid")
+    first = float(touchdowns[2]) if len(touchdowns) > 2 and np.isfinite(touchdowns[2]) else float(t[0])
+    walking = lateral[t >= first - 1e-9]
+    raw = round(float(np.max(np.abs(lateral))), 5)
+    if len(walking) < n:
+        return {"max_m": None, "final_m": None, "final_signed_m": None, "raw_max_m": raw}
+    averaged = np.convolve(walking, np.ones(n) / n, mode="valid")
     return {
         "max_m": round(float(np.max(np.abs(averaged))), 5),
         "final_m": round(float(abs(averaged[-1])), 5),
         "final_signed_m": round(float(averaged[-1]), 5),
-        "raw_max_m": round(float(np.max(np.abs(lateral))), 5),
+        "raw_max_m": raw,
     }
 
 
