@@ -322,3 +322,30 @@ def test_the_scene_never_overwrites_the_description(tmp_path):
     assert (tmp_path / "op3" / "op3.xml").read_bytes() == original
     assert (tmp_path / "op3" / "op3_scene.xml").is_file()
     assert 'model = "op3_scene.xml"' in (tmp_path / "op3" / "op3.toml").read_text()
+
+
+def test_relative_and_ascii_stl_meshes_load_and_other_formats_are_named(tmp_path):
+    """A URDF whose pelvis mesh is an ASCII STL given by a path relative to the URDF: the path is
+    made absolute and the mesh converted to the binary STL MuJoCo reads (same shape). A collision
+    mesh MuJoCo cannot read (COLLADA) is refused naming the file and the formats it reads."""
+    urdf = urdf_biped(tmp_path / "site")
+    meshes = urdf.parent.parent / "meshes"
+    binary = mujoco.MjModel.from_xml_string(f'<mujoco><asset><mesh file="{meshes / "pelvis.stl"}"/></asset></mujoco>')
+    triangles = binary.mesh_vert[binary.mesh_face]  # (faces, 3, 3)
+    lines = ["solid pelvis"]
+    for tri in triangles:
+        lines += ["facet normal 0 0 0", "outer loop", *[f"vertex {x:.9g} {y:.9g} {z:.9g}" for x, y, z in tri],
+                  "endloop", "endfacet"]
+    (meshes / "pelvis_ascii.stl").write_text("\n".join(lines + ["endsolid pelvis"]) + "\n")
+    text = urdf.read_text().replace("package://fixture_biped/meshes/pelvis.stl", "../meshes/pelvis_ascii.stl")
+    ascii_urdf = urdf.with_name("ascii.urdf")
+    ascii_urdf.write_text(text)
+    scene = write_walking_scene(ascii_urdf, tmp_path / "scene" / "ascii.xml")
+    assert any("ASCII STL" in line and "pelvis_ascii.stl" in line for line in scene.additions)
+    model = mujoco.MjModel.from_xml_path(str(scene.path))
+    assert model.nmesh == 1
+    np.testing.assert_allclose(np.sort(model.mesh_vert, axis=0), np.sort(binary.mesh_vert, axis=0), atol=1e-6)
+    dae = urdf.with_name("dae.urdf")
+    dae.write_text(urdf.read_text().replace("pelvis.stl", "pelvis.dae"))
+    with pytest.raises(ModelError, match=r"pelvis\.dae is a \.dae file; MuJoCo reads STL, OBJ and MSH"):
+        write_walking_scene(dae, tmp_path / "dae.xml")

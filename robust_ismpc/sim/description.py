@@ -1,8 +1,9 @@
 """A walking scene from a robot description: a URDF, or an MJCF robot without floor or floating base.
 
 Most humanoids ship a URDF, not a MuJoCo scene. :func:`write_walking_scene` loads the description
-with MuJoCo's own importer (``package://`` paths resolved first, :func:`find_package`) and adds
-only what a walking scene needs and the description does not say:
+with MuJoCo's own importer (``package://`` paths resolved first, :func:`find_package`; relative
+mesh paths made absolute; ASCII STL collision meshes converted to the binary STL MuJoCo reads)
+and adds only what a walking scene needs and the description does not say:
 
 - a free joint on the root link (the floating base), the robot raised so that its lowest
   colliding geometry rests on the floor;
@@ -137,9 +138,58 @@ def _resolve_packages(text: str, source: Path, package_dirs: Sequence[str | Path
     return _PACKAGE_URI.sub(lambda m: str(resolved[m.group(1)] / m.group(2)), text), resolved
 
 
-def _urdf_spec(source: Path, package_dirs: Sequence[str | Path]) -> tuple[mujoco.MjSpec, dict[str, Path]]:
+#: Mesh formats MuJoCo reads.
+MESH_SUFFIXES = (".stl", ".obj", ".msh")
+
+
+def _ascii_stl_to_binary(path: Path, out: Path) -> None:
+    """Write the ASCII STL at ``path`` as a binary STL at ``out`` (MuJoCo reads binary STL only)."""
+    numbers = re.findall(r"vertex\s+(\S+)\s+(\S+)\s+(\S+)", path.read_text(errors="replace"))
+    vertices = np.array(numbers, dtype=np.float32).reshape(-1, 3, 3)
+    normals = np.cross(vertices[:, 1] - vertices[:, 0], vertices[:, 2] - vertices[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    records = np.zeros(len(vertices), dtype=[("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
+    records["normal"], records["vertices"] = normals, vertices
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(b"converted from ASCII by robust-ismpc".ljust(80, b" ")
+                    + np.uint32(len(vertices)).tobytes() + records.tobytes())
+
+
+def _meshes_readable(root: ET.Element, source: Path, mesh_dir: Path) -> list[str]:
+    """Make every mesh path of the URDF ``root`` absolute (relative ones are relative to
+    ``source``'s folder) and readable by MuJoCo: an ASCII STL is converted to a binary one in
+    ``mesh_dir``. Returns a line per conversion; raises ModelError for a format MuJoCo cannot
+    read in the collision geometry (a visual mesh is left out with the other visual geometry)."""
+    notes = []
+    for kind in ("collision", "visual"):
+        for mesh in root.iter(kind):
+            for element in mesh.iter("mesh"):
+                name = element.get("filename")
+                if not name:
+                    continue
+                path = Path(name) if Path(name).is_absolute() else (source.parent / name).resolve()
+                element.set("filename", str(path))
+                if kind == "visual":
+                    continue
+                if path.suffix.lower() not in MESH_SUFFIXES:
+                    raise ModelError(
+                        f"{source.name}: the collision mesh {path.name} is a {path.suffix} file; MuJoCo reads STL, "
+                        "OBJ and MSH. Convert it (for example with trimesh or MeshLab) or use a variant of the "
+                        "description with STL collision meshes")
+                if path.suffix.lower() == ".stl" and path.is_file() and path.read_bytes()[:5].lower() == b"solid" \
+                        and b"facet" in path.read_bytes()[:1000]:
+                    converted = mesh_dir / f"{path.parent.name}_{path.name}"
+                    _ascii_stl_to_binary(path, converted)
+                    element.set("filename", str(converted))
+                    notes.append(f"the ASCII STL {path} converted to the binary {converted}")
+    return notes
+
+
+def _urdf_spec(source: Path, package_dirs: Sequence[str | Path],
+               mesh_dir: Path) -> tuple[mujoco.MjSpec, dict[str, Path], list[str]]:
     text, packages = _resolve_packages(source.read_text(), source, package_dirs)
     root = ET.fromstring(text)
+    notes = _meshes_readable(root, source, mesh_dir)
     for old in root.findall("mujoco"):
         root.remove(old)
     extension = ET.SubElement(root, "mujoco")
@@ -148,7 +198,7 @@ def _urdf_spec(source: Path, package_dirs: Sequence[str | Path]) -> tuple[mujoco
     # the root has its free joint, or the root itself would be fused into the world
     ET.SubElement(extension, "compiler", strippath="false", discardvisual="true", fusestatic="false")
     try:
-        return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode")), packages
+        return mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode")), packages, notes
     except ValueError as exc:
         raise ModelError(f"MuJoCo cannot import {source.name}: {exc}") from None
 
@@ -301,12 +351,13 @@ def write_walking_scene(source: str | Path, out_path: str | Path, package_dirs: 
         raise ModelError(f"{source.name} is already a scene (floor and floating base): use it as it is")
     out_path = Path(out_path).expanduser().resolve()
     packages: dict[str, Path] = {}
+    converted: list[str] = []
     if kind == "urdf":
-        spec, packages = _urdf_spec(source, package_dirs)
+        spec, packages, converted = _urdf_spec(source, package_dirs, out_path.with_name(f"{out_path.stem}_meshes"))
     else:
         spec = _mjcf_spec(source)
     additions = [f"{kind.upper()} {source} imported by MuJoCo {mujoco.__version__}"]
-    additions += [f"package://{name} = {folder}" for name, folder in packages.items()]
+    additions += [f"package://{name} = {folder}" for name, folder in packages.items()] + converted
     root = _root(spec)
     if not any(j.type == mujoco.mjtJoint.mjJNT_FREE for j in root.joints) and not list(root.joints):
         try:
