@@ -64,7 +64,8 @@ def stand(spec: RobotSpec, duration_s: float = 5.0) -> dict:
                                                        foot_friction=spec.foot_friction))
     com0, left, right = initial_state(spec)
     period = sim.settings.control_period_s
-    diagnostics = ModelDiagnostics(sim.model, sim.robot.robot_body_ids, spec.mass_kg * GRAVITY_MPS2)
+    diagnostics = ModelDiagnostics(sim.model, sim.robot.robot_body_ids, spec.mass_kg * GRAVITY_MPS2,
+                                   settle_samples=int(round(SETTLE_S / period)))
     drift, sag, fell_at = 0.0, 0.0, None
     for _ in range(int(round(duration_s / period))):
         measurement, contacts = sim.measure()
@@ -79,7 +80,7 @@ def stand(spec: RobotSpec, duration_s: float = 5.0) -> dict:
             break
     still = drift <= STAND_DRIFT_SOLE_FRACTION * spec.sole_width_m
     return {"stood": fell_at is None and still, "fell_at_s": fell_at, "com_drift_m": round(drift, 4), "com_sag_m": round(sag, 4),
-            "diagnostics": diagnostics.summary(period, skip_ticks=int(round(SETTLE_S / period)))}
+            "diagnostics": diagnostics.summary(period)}
 
 
 def check_robot(robot: str, stand_s: float = 5.0, walk_s: float = 5.0,

@@ -18,6 +18,8 @@ defects of a robot model brought from elsewhere (a URDF, a scene written for ano
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -49,10 +51,12 @@ class ModelDiagnostics:
         The robot's weight [N].
     torque_limits_nm : ndarray, shape (nu, 2), optional
         Each actuator's torque interval [N m]; None: the model's force ranges.
+    settle_samples : int
+        CoP samples left out of the jitter (the robot settling).
     """
 
     def __init__(self, model: mujoco.MjModel, robot_bodies, weight_n: float,
-                 torque_limits_nm: np.ndarray | None = None) -> None:
+                 torque_limits_nm: np.ndarray | None = None, settle_samples: int = 0) -> None:
         self.model = model
         self.robot_bodies = {int(b) for b in robot_bodies}
         self.weight_n = float(weight_n)
@@ -65,7 +69,12 @@ class ModelDiagnostics:
         self.torque_limit_ticks = np.zeros(model.nu, dtype=int)
         self.joint_limit_ticks = np.zeros(model.njnt, dtype=int)
         self.com_outside_ticks = 0
-        self._cop: list[np.ndarray] = []
+        # the CoP jitter, accumulated: samples seen, the last one, and the squared moves after settling
+        self._settle_samples = int(settle_samples)
+        self._cop_samples = 0
+        self._last_cop: np.ndarray | None = None
+        self._cop_moves = 0
+        self._cop_move_sq_m2 = 0.0
         self._force = np.zeros(6)
 
     def update(self, data: mujoco.MjData, com_xy_m: np.ndarray, cop_xy_m: np.ndarray | None,
@@ -94,20 +103,22 @@ class ModelDiagnostics:
         for joint in set(int(j) for j in data.efc_id[:data.nefc][limit_rows]):
             self.joint_limit_ticks[joint] += 1
         if cop_xy_m is not None:
-            self._cop.append(np.asarray(cop_xy_m, dtype=float)[:2].copy())
+            cop = np.asarray(cop_xy_m, dtype=float)[:2].copy()
+            self._cop_samples += 1
+            if self._last_cop is not None and self._cop_samples > self._settle_samples + 1:
+                self._cop_moves += 1
+                self._cop_move_sq_m2 += float(np.sum((cop - self._last_cop) ** 2))
+            self._last_cop = cop
         if support_polygon_m is not None and len(support_polygon_m) >= 3:
             if distance_outside(np.asarray(com_xy_m, dtype=float)[:2], support_polygon_m) > 0:
                 self.com_outside_ticks += 1
 
-    def cop_jitter_m(self, skip_ticks: int = 0) -> float | None:
-        """Rms of the CoP's move from one tick to the next [m], after ``skip_ticks``; None
-        without two CoP samples."""
-        cop = np.array(self._cop[skip_ticks:])
-        if len(cop) < 2:
-            return None
-        return float(np.sqrt(np.mean(np.sum(np.diff(cop, axis=0) ** 2, axis=1))))
+    def cop_jitter_m(self) -> float | None:
+        """Rms of the CoP's move from one sample to the next [m], after the settling samples;
+        None without two CoP samples after them."""
+        return math.sqrt(self._cop_move_sq_m2 / self._cop_moves) if self._cop_moves else None
 
-    def summary(self, period_s: float, skip_ticks: int = 0) -> dict:
+    def summary(self, period_s: float) -> dict:
         """JSON-ready: ``self_contacts`` (pairs with the largest normal force above
         :data:`SELF_CONTACT_WEIGHT_FRACTION` of the weight, strongest first), ``cop_jitter_m``,
         ``torque_limits_s`` and ``joint_limits_s`` (time at the limit per joint, longest first),
@@ -116,7 +127,7 @@ class ModelDiagnostics:
         threshold = SELF_CONTACT_WEIGHT_FRACTION * self.weight_n
         contacts = sorted(((pair, f) for pair, f in self.self_contacts_n.items() if f > threshold),
                           key=lambda item: -item[1])
-        jitter = self.cop_jitter_m(skip_ticks)
+        jitter = self.cop_jitter_m()
 
         def timed(ticks: np.ndarray, name) -> dict[str, float]:
             order = np.argsort(-ticks, kind="stable")
