@@ -279,9 +279,10 @@ def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
 
 def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
     """paper-push on G1 (torque control), seed 0, the paper's Fig. 4: the robust robot walks the
-    10 s under the constant push, its planned disturbance the push's (within 5 %), and re-times a
-    step right after the sideways impulse at 6 s; the nominal one falls (here standing, under the
-    constant push alone, which the paper does not time)."""
+    10 s under the constant push without an infeasible QP, its planned disturbance the push's
+    (within 5 %); the nominal one falls (here standing, under the constant push alone, which the
+    paper does not time). The re-timing after the impulse is checked over ten seeds below: seed 0
+    absorbs its impulse without one."""
     comparison = run_scenario("paper-push", seed=0).comparison
     assert comparison["whole_body"] == "torque"
     nominal, robust = comparison["nominal"], comparison["robust"]
@@ -289,9 +290,26 @@ def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
     assert not robust["fell"] and robust["qp_infeasible_count"] == 0
     applied_x = robust["disturbance_applied_mean_mps2"][0]
     assert abs(robust["disturbance_planned_mean_mps2"][0] - applied_x) < 0.05 * applied_x
-    assert robust["adaptations_after_hit"] >= 1
-    assert 0.0 <= robust["first_adaptation_s"] - robust["event_s"] <= 0.2
     assert comparison["expected_outcome"]
+
+
+@pytest.mark.slow
+def test_paper_push_shows_the_papers_mechanism_on_eight_of_ten_seeds() -> None:
+    """paper-push, seeds 0-9 (issue 27's bar): on at least 8 the nominal G1 falls, the robust one
+    walks, plans with the push's disturbance (within 5 %) and re-times a step within 0.2 s of the
+    sideways impulse."""
+    shown = 0
+    for seed in range(10):
+        comparison = run_scenario("paper-push", seed=seed).comparison
+        robust = comparison["robust"]
+        applied_x = robust["disturbance_applied_mean_mps2"][0]
+        shown += bool(
+            comparison["expected_outcome"]
+            and abs(robust["disturbance_planned_mean_mps2"][0] - applied_x) < 0.05 * applied_x
+            and robust["adaptations_after_hit"] >= 1
+            and 0.0 <= robust["first_adaptation_s"] - robust["event_s"] <= 0.2
+        )
+    assert shown >= 8
 
 
 def test_disturbance_events_name_the_ball_hit_and_each_force() -> None:

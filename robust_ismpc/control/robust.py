@@ -18,7 +18,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -35,95 +34,12 @@ from ..core.restriction import checked_restriction_rate, max_tolerable_deviation
 from ..estimation.estimator import DisturbanceEstimator
 from ..estimation.filters import MidrangeFilter, MidrangeParams, PersistenceFilter
 from ..estimation.governor import interval_unchecked, target_unchecked
-from ..exceptions import InfeasibleMpc, ParameterError
-from ..validation import check_nonnegative
+from ..exceptions import InfeasibleMpc
 from .controller import IsmpcController
 from .modules import MODULES, check_modules
+from .retiming import next_single_support_durations, start_timings
+from .robust_params import RobustParams
 from .step_timing import StaParams, should_adapt, solve_sta
-
-#: Durations of the coming single support, as fractions of its nominal one, that
-#: :meth:`RobustIsmpcController._retime_next_step` tries in double support (within
-#: :meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
-DS_RETIMING_FRACTIONS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5)
-
-#: Largest number of earlier first touchdowns (and of later ones, while the robot still stands on
-#: both feet) that :meth:`RobustIsmpcController._retime_start` tries in one cycle.
-START_RETIMING_TRIES = 8
-
-
-@dataclass(frozen=True)
-class RobustParams:
-    """Settings of the robustness modules.
-
-    Attributes
-    ----------
-    delta_max_mps2 : float or None
-        Δmax, the deviation of the disturbance from its mid-range that the ZMP restriction
-        guarantees [m/s²]. None: ``delta_max_fraction`` of the largest value the foot and horizon
-        can guarantee.
-    delta_max_fraction : float
-        Used when ``delta_max_mps2`` is None, in (0, 1).
-    disturbance_time_constant_s : float
-        Time constant of the low-pass filter on the measured disturbance [s]
-        (:class:`~robust_ismpc.estimation.estimator.DisturbanceEstimator`).
-    persistence_s : float
-        The part of the estimate that persisted this long with one sign is its persistent part
-        (see :class:`~robust_ismpc.estimation.filters.PersistenceFilter`) [s], the floor of the mid-range
-        target: impulsive pushes are left to the step timing adaptation instead of being
-        compensated as if they lasted forever.
-    transient_time_constant_s : float
-        T, how long a fresh disturbance (the part of ŵ that has not yet persisted for
-        ``persistence_s``) is expected to last [s]. The modified stability constraint treats
-        w̃ as constant forever; a disturbance decaying as ``e^{-t/T}`` shifts the DCM by only
-        ``ηT / (1 + ηT)`` of that (docs/derivations.md), so the fresh part enters the target
-        scaled by this factor. Default 0.1 s, the length of a push (the choice is measured in
-        docs/robust.md). ``math.inf``: the fresh part counts in full.
-    governor : bool
-        True (default): the fresh estimate (without the persistence window) enters the mid-range
-        target as far as the shifted DCM stays inside the exact feasibility region of the current
-        step timing, on each axis of the support frame, in single support
-        (:mod:`robust_ismpc.estimation.governor`), and as far as the QP stays feasible in double
-        support; a persistent force is then compensated without waiting for the persistence
-        window, while a push cannot move the shifted DCM out of the region.
-        False: the persistent part only (what the governor adds: docs/robust.md).
-    midrange_rate_mps3 : float
-        Largest rate of change of the mid-range disturbance w̃ used by the MPC [m/s³]. The
-        restriction's guarantee holds while w̃ is steady.
-    sta : StaParams or None
-        Step timing adaptation settings; None: defaults with the safety margin (and trigger
-        distance) set to 1/16 of the smaller ZMP box side, the largest fraction at which no
-        undisturbed gait adapts (docs/robust.md).
-    """
-
-    delta_max_mps2: float | None = None
-    delta_max_fraction: float = 0.5
-    disturbance_time_constant_s: float = 0.03
-    persistence_s: float = 0.12
-    transient_time_constant_s: float = 0.1
-    governor: bool = True
-    midrange_rate_mps3: float = 10.0
-    sta: StaParams | None = None
-
-    def __post_init__(self) -> None:
-        if self.delta_max_mps2 is not None and not (
-            isinstance(self.delta_max_mps2, (int, float)) and math.isfinite(self.delta_max_mps2) and self.delta_max_mps2 >= 0
-        ):
-            raise ParameterError(f"RobustParams.delta_max_mps2 must be a finite number >= 0, got {self.delta_max_mps2!r}")
-        if not (isinstance(self.delta_max_fraction, (int, float)) and 0 < self.delta_max_fraction < 1):
-            raise ParameterError(f"RobustParams.delta_max_fraction must be in (0, 1), got {self.delta_max_fraction!r}")
-        if not (isinstance(self.persistence_s, (int, float)) and math.isfinite(self.persistence_s)
-                and self.persistence_s >= 0):
-            raise ParameterError(f"RobustParams.persistence_s must be a finite number >= 0, got {self.persistence_s!r}")
-        if not (isinstance(self.transient_time_constant_s, (int, float)) and self.transient_time_constant_s > 0
-                and not math.isnan(self.transient_time_constant_s)):
-            raise ParameterError("RobustParams.transient_time_constant_s must be a number > 0 (inf allowed), "
-                                 f"got {self.transient_time_constant_s!r}")
-        if not isinstance(self.governor, bool):
-            raise ParameterError(f"RobustParams.governor must be a bool, got {self.governor!r}")
-        check_nonnegative("RobustParams", disturbance_time_constant_s=self.disturbance_time_constant_s)
-        if not (isinstance(self.midrange_rate_mps3, (int, float)) and math.isfinite(self.midrange_rate_mps3)
-                and self.midrange_rate_mps3 > 0):
-            raise ParameterError(f"RobustParams.midrange_rate_mps3 must be a finite number > 0, got {self.midrange_rate_mps3!r}")
 
 
 @dataclass
@@ -470,7 +386,8 @@ class RobustIsmpcController(IsmpcController):
         feasible.
 
         The analytical feasibility bounds (:meth:`_adapt_timing`) hold in single support only, so
-        here the QP itself decides: durations on the :data:`DS_RETIMING_FRACTIONS` grid of the
+        here the QP itself decides: durations on the
+        :data:`~robust_ismpc.control.retiming.DS_RETIMING_FRACTIONS` grid of the
         nominal single support are tried nearest first. Returns the plan, or None (timing left
         as it was) in single support or if no duration is feasible.
         """
@@ -479,12 +396,9 @@ class RobustIsmpcController(IsmpcController):
         k = j + 1  # the step whose single support comes next
         if j < 2 or t < plan.touchdown_s[j] - 1e-9 or k >= plan.n_footsteps:
             return None
-        nominal = float(self.nominal_T_ss_s[k])
-        lo, hi = self.sta_params.ss_limits(nominal)
         current = float(plan.T_ss_s[k])
-        durations = {round(f * nominal / self.dt) * self.dt for f in DS_RETIMING_FRACTIONS}
-        durations = sorted((d for d in durations if lo - 1e-9 <= d <= hi + 1e-9 and abs(d - current) > 1e-9),
-                           key=lambda d: abs(d - current))
+        nominal = float(self.nominal_T_ss_s[k])
+        durations = next_single_support_durations(nominal, current, self.sta_params.ss_limits(nominal), self.dt)
         start = float(plan.ss_start_s[k])
         for duration in durations:
             plan.retime_touchdown(k, start + duration)
@@ -503,50 +417,36 @@ class RobustIsmpcController(IsmpcController):
         return None
 
     def _retime_start(self, state: MpcState) -> MpcPlan | None:
-        """In the initial stance, when the QP is infeasible: move the first touchdown to the
-        nearest one for which the QP is feasible, among at most :data:`START_RETIMING_TRIES`
-        earlier ones between the current one and the earliest and, while the ZMP box is still on
-        the feet's midpoint, as many later ones at the same spacing (nearest first, earlier
-        before later).
+        """In the initial stance, when the QP is infeasible: re-time the first step to the first
+        timing of :func:`~robust_ismpc.control.retiming.start_timings` for which the QP is
+        feasible (earlier touchdowns with the longest single support they allow, later ones while
+        the ZMP box is still on the feet's midpoint, then the shortest single support after the
+        longest double support).
 
-        Earlier: the first single support starts earlier first (its double support compressed to
-        no less than ``T_ds_s``), then, once it starts at the earliest, it is shortened down to
-        the step timing's shortest (:meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
         A robot that does not step can hold a persistent force only while the DCM's offset w/η²
         fits in its feet; beyond that it must step, and the first footstep is a decision of the
         MPC like every other one. Later: the stance on both feet lasts longer, which is what a
         sideways push towards the second support foot needs (the box would otherwise move to the
         first support foot, away from the DCM). Returns the plan, or None (timing left as it
-        was) if no touchdown is feasible.
+        was) if no timing is feasible.
         """
         plan, t = self.plan, state.t_s
         current = float(plan.touchdown_s[2])
         nominal = float(self.nominal_T_ss_s[2])
-        T_ss_min = self.sta_params.ss_limits(nominal)[0]
-        earliest_start = min(t + max(self.robot.T_ds_s, self.dt), float(plan.ss_start_s[2]))
-        earliest = earliest_start + T_ss_min
-        span = max(current - earliest, self.robot.T_step_s)
-        spacing = max(self.dt, round(span / START_RETIMING_TRIES / self.dt) * self.dt)
-        earlier = np.arange(current - spacing, earliest - 1e-9, -spacing)
-        if current - earliest >= self.dt - 1e-9 and (len(earlier) == 0 or earlier[-1] > earliest + 1e-9):
-            earlier = np.append(earlier, earliest)
-        later = np.empty(0)
-        if t < float(plan.touchdown_s[1]) - 1e-9:  # the box is still on the midpoint
-            later = current + spacing * np.arange(1, START_RETIMING_TRIES + 1)
-            later = later[later <= self._latest_first_touchdown_s + 1e-9]
-        touchdowns = [td for pair in itertools.zip_longest(earlier, later) for td in pair if td is not None]
         saved = (plan.T_ss_s.copy(), plan.T_ds_s.copy(), plan.ss_start_s.copy())
+        timings = start_timings(
+            t, float(saved[2][2]), current, nominal, self.sta_params.ss_limits(nominal)[0], self.robot.T_ds_s,
+            self.robot.T_step_s, self.dt, on_midpoint=t < float(plan.touchdown_s[1]) - 1e-9,
+            latest_touchdown_s=self._latest_first_touchdown_s,
+        )
 
         def restore() -> None:
             plan.T_ss_s[:], plan.T_ds_s[:], plan.ss_start_s[:] = saved
 
-        for touchdown in touchdowns:
-            start = max(earliest_start, min(float(saved[2][2]), touchdown - min(nominal, float(saved[0][2]))))
-            if touchdown > current:  # a longer stance on the midpoint
-                start = touchdown - float(saved[0][2])
-            if abs(start - float(saved[2][2])) > 1e-9:
-                plan.retime_start(t, start)
-            plan.retime_touchdown(2, touchdown)
+        for timing in timings:
+            if abs(timing.start_s - float(saved[2][2])) > 1e-9:
+                plan.retime_start(t, timing.start_s)
+            plan.retime_touchdown(2, timing.touchdown_s)
             try:
                 result = super()._solve_qp(state)
             except InfeasibleMpc:
@@ -555,9 +455,9 @@ class RobustIsmpcController(IsmpcController):
             except BaseException:
                 restore()
                 raise
-            self.timing.record(touchdown - t)
-            self._log.warning("sta", t, f"first step re-timed: touchdown at {touchdown:.2f} s "
-                                        f"(was {current:.2f} s), single support from {start:.2f} s")
+            self.timing.record(timing.touchdown_s - t)
+            self._log.warning("sta", t, f"first step re-timed: touchdown at {timing.touchdown_s:.2f} s "
+                                        f"(was {current:.2f} s), single support from {timing.start_s:.2f} s")
             return result
         return None
 
