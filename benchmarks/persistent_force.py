@@ -10,6 +10,7 @@ For each controller and direction (0 = forward, 90 = left), bisection on the for
 * ``stand_t0``: ``--vx 0``, the force switched on at t = 0, 10 s;
 * ``stand_ramp_t0``: ``--vx 0``, ramped in over 1 s from t = 0, 10 s;
 * ``walk_t0``: walking at the robot's usual speed, switched on at t = 0, 20 s;
+* ``walk_ramp_t0``: walking, ramped in over 1 s from t = 0, 20 s;
 * ``walk_on``: walking, switched on at 3 s + k/4 of a stride (k = 0..3, four phases), 9 s;
 * ``walk_ramp3``: walking, ramped in over 1 s from 3 s, 9 s.
 
@@ -31,7 +32,7 @@ from robust_ismpc.runs.run import run
 from robust_ismpc.runs.spec import RunSpec, gait_params
 
 WALK_SPEED_MPS = {"g1": 0.2, "op3": 0.1, "t1": 0.2, "apollo": 0.2}
-CASES = ("stand_t0", "stand_ramp_t0", "walk_t0", "walk_on", "walk_ramp3")
+CASES = ("stand_t0", "stand_ramp_t0", "walk_t0", "walk_ramp_t0", "walk_on", "walk_ramp3")
 
 
 def holds(robot: str, sim: str, modules, vx: float, force_n: float, direction_deg: float, start_s: float,
@@ -72,6 +73,8 @@ def frontier(robot: str, sim: str, modules, direction_deg: float, cases) -> dict
         row["stand_ramp_t0"] = case(0.0, 0.0, 1.0, 10.0)
     if "walk_t0" in cases:
         row["walk_t0"] = case(vx, 0.0, 0.0, 20.0)
+    if "walk_ramp_t0" in cases:
+        row["walk_ramp_t0"] = case(vx, 0.0, 1.0, 20.0)
     if "walk_on" in cases:
         row["walk_on"] = [case(vx, 3.0 + k * stride_s / 4, 0.0, 9.0) for k in range(4)]
     if "walk_ramp3" in cases:
