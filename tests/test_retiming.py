@@ -86,3 +86,5 @@ def test_robust_stands_under_a_sagittal_force_beyond_its_feet_from_the_start(fx_
     outcome, _ = run_lip(controller, 10.0, [ForceWindow(fx_n, 0.0)])
     assert not outcome.fell, outcome.failure
     assert controller.timing_adaptations > 0 and plan.touchdown_s[2] < 1.0
+    shortest = controller.sta_params.ss_limits(G1.T_ss_s)[0]
+    assert plan.T_ss_s[2] == pytest.approx(shortest)  # the first step is the shortest one
