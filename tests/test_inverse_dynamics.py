@@ -74,6 +74,32 @@ def test_solution_obeys_the_dynamics_and_the_contact_cones(g1_spec):
     assert np.linalg.norm(com[:2] - controller.target(1.5)[:2]) < 0.01
 
 
+def test_the_soles_carry_the_weight_the_feet_weigh_beyond_the_model(g1_spec):
+    """A load the robot's model does not know (the feet weigh 3.3 kg more than the model's
+    mass): the QP's sole wrenches carry its weight, Δm g more vertical force than with the
+    model's mass, and the centre of their vertical forces stays where it was (the load acts at the
+    CoM, not as a moment)."""
+    sim = MujocoSimulation(g1_spec, settings=LoopSettings(torque_control=TorqueControlSettings()))
+    controller = ComShiftController(g1_spec, (0.0, 0.0))
+    for _ in range(30):
+        step_simulation(sim, controller, 0.01)
+    qp = sim.inverse_dynamics
+    model_kg = qp.robot.mass_kg
+
+    def vertical_force_and_centre(weighed_kg):
+        qp.torques(sim._reference, sim._ik_qpos, sim._ik_qvel, sim._ik_qacc, weighed_mass_kg=weighed_kg)
+        fz = sum(w[2] for w in qp.last_wrenches.values())
+        moment_y = sum(qp.robot.sole_frame(side)[0][0] * w[2] - w[4] for side, w in qp.last_wrenches.items())
+        return fz, moment_y / fz
+
+    fz_model, centre_model = vertical_force_and_centre(None)
+    fz_same, _ = vertical_force_and_centre(model_kg)
+    fz_loaded, centre_loaded = vertical_force_and_centre(model_kg + 3.3)
+    assert fz_same == pytest.approx(fz_model, rel=1e-4)  # (each solve updates its J̇ by a backward difference)
+    assert fz_loaded - fz_model == pytest.approx(3.3 * 9.81, rel=0.05)
+    assert abs(centre_loaded - centre_model) < 0.005
+
+
 def test_one_inverse_dynamics_qp_per_physics_step(g1_spec):
     """Torque control solves the inverse-dynamics QP once per physics step, not again when a
     new reference arrives (an operation count, the CI's speed regression check)."""

@@ -300,7 +300,8 @@ class MujocoSimulation:
             hold = self.inverse_dynamics_steps
             if self._motor_command is None or self._steps_since_command >= hold:
                 self._motor_command = self.inverse_dynamics.command(
-                    self._reference, self._ik_qpos, self._ik_qvel, self._ik_qacc, hold * float(self.model.opt.timestep))
+                    self._reference, self._ik_qpos, self._ik_qvel, self._ik_qacc, hold * float(self.model.opt.timestep),
+                    self.weighed_mass_kg)
                 self._steps_since_command = 0
             self._steps_since_command += 1
             act = self.actuators

@@ -39,6 +39,7 @@ import daqp
 import mujoco
 import numpy as np
 
+from ...core.params import GRAVITY_MPS2
 from ...core.reference import GaitReference
 from ...exceptions import ParameterError, SolverError
 from ...validation import check_nonnegative
@@ -224,6 +225,7 @@ class InverseDynamicsQp:
         self._M = np.zeros((nv, nv))
         self._jac_torso = np.zeros((3, nv))
         self._jac_torso_rot = np.zeros((3, nv))
+        self._jac_load = np.zeros((3, nv))
         # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
         # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
@@ -270,21 +272,25 @@ class InverseDynamicsQp:
         return self._limits
 
     def command(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray, ik_qacc: np.ndarray,
-                hold_s: float) -> MotorCommand:
+                hold_s: float, weighed_mass_kg: float | None = None) -> MotorCommand:
         """The motor command that holds this state's solution for ``hold_s`` [s], until the next
         one (:func:`~robust_ismpc.sim.whole_body.motor_command.held_command`); arguments as
         :meth:`torques`."""
-        tau = self.torques(reference, ik_qpos, ik_qvel, ik_qacc)
+        tau = self.torques(reference, ik_qpos, ik_qvel, ik_qacc, weighed_mass_kg)
         qacc = np.zeros(len(self._dof)) if self.last_qacc is None else self.last_qacc[self._dof]
         return held_command(tau, self.data.qpos[self._qpos_index], self.data.qvel[self._dof], qacc,
                             np.diag(self._M)[self._dof], hold_s, self.settings.joint_bandwidth_radps)
 
     def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
-                ik_qacc: np.ndarray) -> np.ndarray:
+                ik_qacc: np.ndarray, weighed_mass_kg: float | None = None) -> np.ndarray:
         """Motor torques for the current state, shape (nu,) [N m], in actuator order.
 
         ``ik_qpos``, ``ik_qvel``, ``ik_qacc`` are the IK reference configuration and its finite-
-        difference velocity and acceleration (IK model indexing). Runs ``mj_forward`` first.
+        difference velocity and acceleration (IK model indexing). ``weighed_mass_kg`` is the mass
+        the feet weigh (:func:`~robust_ismpc.estimation.weight.weigh`; the model's when None): the
+        weight beyond the model's, a load the robot carries that its model does not know, enters
+        the equations of motion as a vertical force at the CoM; where that load hangs is in the
+        measured moment (``reference.disturbance_moment_mps2``). Runs ``mj_forward`` first.
         If DAQP reports a failure, the previous torques are returned and ``failures`` counts it.
 
         Raises
@@ -306,9 +312,14 @@ class InverseDynamicsQp:
         # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
         jac_com = np.zeros((3, nv))
         mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
+        bias = d.qfrc_bias - d.qfrc_passive
+        load_kg = 0.0 if weighed_mass_kg is None else float(weighed_mass_kg) - self.robot.mass_kg
+        if load_kg != 0.0:
+            # the weight the model lacks (or has in excess), at the CoM: a load, not a moment
+            mujoco.mj_jac(m, d, self._jac_load, None, d.subtree_com[self._root], self._root)
+            bias = bias + self._jac_load[2] * (load_kg * GRAVITY_MPS2)
         # the disturbance the plan was made for, on the torso: its moment part as a moment
         # (τ_y, -τ_x) = m h w_moment, the rest as a force m w_force at the CoM's height
-        bias = d.qfrc_bias - d.qfrc_passive
         if np.any(reference.disturbance_mps2):
             moment = np.asarray(reference.disturbance_moment_mps2, dtype=float)[:2]
             force = np.asarray(reference.disturbance_mps2, dtype=float)[:2] - moment
