@@ -264,17 +264,19 @@ def paper_bag_8s():
 
 @pytest.mark.xfail(strict=True, reason=CLOSED_LOOP_GAP)
 def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
-    """paper-bag on OP3 (seed 0, 8 s), the paper's Fig. 2: the nominal robot falls under the
-    swinging bag; the robust one walks on along the planned path (stride-averaged deviation below
-    3 cm), its observer reading the bag on the right elbow as a push to the right."""
+    """paper-bag on OP3 (seed 0, 8 s), the paper's Fig. 2 and its mechanism: the nominal robot
+    falls or drifts off its path under the swinging bag (at least 3 cm and twice the robust
+    deviation, ``expected_outcome``); the robust one leans against the bag (its planned
+    disturbance points to the bag, -y), keeps the path within 3 cm, and needs neither a
+    step-timing adaptation nor a replayed plan; the bag does swing."""
     comparison = paper_bag_8s
-    assert comparison["nominal"]["fell"]
-    assert not comparison["robust"]["fell"]
-    assert comparison["robust"]["scene"]["payloads"][0]["max_swing_rad"] > 0.1  # the bag does swing
-    assert comparison["robust"]["disturbance_planned_mean_mps2"][1] < -0.3  # towards the bag (-y)
-    assert comparison["robust"]["path_deviation"]["max_m"] < 0.03
-    assert comparison["robust_survives_nominal_fails"] and comparison["robust_keeps_path"]
-    assert comparison["expected_outcome"]
+    robust = comparison["robust"]
+    assert not robust["fell"]
+    assert robust["scene"]["payloads"][0]["max_swing_rad"] > 0.1  # the bag does swing
+    assert robust["disturbance_planned_mean_mps2"][1] < -0.3  # towards the bag (-y)
+    assert robust["timing_adaptations"] == 0 and robust["qp_infeasible_count"] == 0
+    assert robust["path_deviation"]["max_m"] < 0.03
+    assert comparison["robust_keeps_path"] and comparison["expected_outcome"]
 
 
 def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:
