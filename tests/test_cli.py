@@ -112,6 +112,22 @@ def test_bench_writes_json(tmp_path):
     assert "mujoco_torque_tick_ms" not in rows  # only with --mujoco
 
 
+def test_bench_times_the_robot_it_is_given(tmp_path, capsys):
+    """--robot applies to the speed table too: its rows are op3's, named so in the table, and a
+    baseline measured on another robot is refused."""
+    argv = ["bench", "--robot", "op3", "--horizons", "20", "--cycles", "50", "--solvers", "daqp", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    data = json.loads((tmp_path / "bench.json").read_text())
+    assert data["robot"] == "op3" and data["speed"]["robot"] == "op3"
+    assert "`ismpc run --sim lip --robot op3 --duration 10`" in (tmp_path / "bench.md").read_text()
+    from robust_ismpc.exceptions import ParameterError
+    from robust_ismpc.experiments.speed import compare_speed
+
+    g1 = {"speed": {"robot": "g1", "rows": {"process_lip_s": 1.0}}}
+    with pytest.raises(ParameterError, match="measured robot 'g1'"):
+        compare_speed(data, g1)
+
+
 def test_bench_compares_with_a_baseline(tmp_path, capsys):
     """--baseline prints each speed row's ratio and flags rows 10 % slower or more."""
     base = {"speed": {"repeats": 1, "rows": {"lip_cycle_nominal_median_ms": 1e-6, "process_lip_s": 1e6}}}
@@ -156,6 +172,7 @@ BAD_OTHER_ARGS = [
     (["bench", "--cycles", "5"], "--cycles must be between 10 and 100000"),
     (["bench", "--repeats", "0"], "--repeats must be from 1 to 50"),
     (["bench", "--baseline", "no-such-bench.json"], "--baseline 'no-such-bench.json': no such file"),
+    (["bench", "--mujoco", "--robot", "hrp4"], "unknown robot 'hrp4' for MuJoCo"),
     (["calibrate", "--robot", "nao"], "unknown robot 'nao'"),
     (["calibrate", "--vx", "0", "--duration", "3"], "no forward swing motion"),
 ]

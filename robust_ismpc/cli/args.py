@@ -242,7 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
     p_bench = sub.add_parser("bench", help="time the MPC cycle, the closed loop and start-up",
                              description="Measure the per-cycle time of the MPC (build and solve) at C = 50, 100, 200, "
                              "then the speed table: the LIP cycle, the robust cycle at C = 200, whole-process "
-                             "start-up and, with --mujoco, G1's closed-loop tick in MuJoCo (medians of --repeats).")
+                             "start-up and, with --mujoco, the closed-loop tick in MuJoCo (medians of --repeats), all on --robot "
+                             "(a robot file's own settings included, such as its inverse-dynamics rate).")
     p_bench.add_argument("--robot", default="g1", help=robot_help())
     p_bench.add_argument("--horizons", default="50,100,200", help="control-horizon samples, comma-separated")
     p_bench.add_argument("--cycles", type=int, default=1000, help="cycles per horizon (1000)")
@@ -250,7 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help="solvers to compare on the same QPs, comma-separated (default: those of daqp, osqp, "
                          "proxqp, quadprog that are installed)")
     p_bench.add_argument("--mujoco", action="store_true",
-                         help="also measure G1 in MuJoCo: time per tick (torque and servo) and whole-process start-up")
+                         help="also measure the robot in MuJoCo: time per tick (torque and servo) and whole-process "
+                         "start-up")
     p_bench.add_argument("--repeats", type=int, default=1, help="runs per speed-table row; the median is reported (1)")
     p_bench.add_argument("--baseline", default=None,
                          help="a previous bench.json: print each speed row's ratio to it and flag regressions (>= 1.1x)")

@@ -99,6 +99,9 @@ def cmd_bench(args) -> int:
         from ..extras import require_extra
 
         require_extra("sim", "ismpc bench --mujoco")
+        from ..runs.spec import RunSpec
+
+        RunSpec(robot=args.robot, sim="mujoco")  # --robot must have a MuJoCo model: fail before the long LIP rows
     from ..experiments.speed import check_repeats
 
     check_repeats(args.repeats)
@@ -112,7 +115,8 @@ def cmd_bench(args) -> int:
 
     result = run_bench(args.robot, horizons, args.cycles, solvers)
     result["commit"] = commit()
-    result["speed"] = measure_speed(args.repeats, mujoco=args.mujoco, progress=None if args.quiet else _say)
+    result["speed"] = measure_speed(args.repeats, mujoco=args.mujoco, progress=None if args.quiet else _say,
+                                    robot=args.robot)
     if baseline is not None:
         result["comparison"] = compare_speed(result, baseline)
         result["baseline"] = {"path": str(Path(args.baseline).resolve()), "commit": baseline.get("commit"),

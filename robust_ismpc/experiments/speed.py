@@ -28,11 +28,12 @@ ROWS = (
     ("lip_cycle_robust_median_ms", "same, robust, median", "ms"),
     ("lip_cycle_robust_p99_ms", "same, robust, p99", "ms"),
     ("bench_robust_c200_median_ms", "robust cycle at C = 200 (LIP, 1000 cycles with pushes), median", "ms"),
-    ("mujoco_torque_tick_ms", "G1 in MuJoCo, torque control: wall time per 10 ms tick", "ms"),
-    ("mujoco_servo_tick_ms", "G1 in MuJoCo, servo playback: wall time per 10 ms tick", "ms"),
-    ("process_lip_s", "`ismpc run --sim lip --robot g1 --duration 10`, whole process", "s"),
-    ("process_mujoco_servo_s", "`ismpc run --sim mujoco --robot g1 --duration 10 --whole-body servo`, whole process", "s"),
-    ("process_mujoco_torque_s", "`ismpc run --sim mujoco --robot g1 --duration 10`, whole process", "s"),
+    ("mujoco_torque_tick_ms", "{robot} in MuJoCo, torque control: wall time per 10 ms tick", "ms"),
+    ("mujoco_servo_tick_ms", "{robot} in MuJoCo, servo playback: wall time per 10 ms tick", "ms"),
+    ("process_lip_s", "`ismpc run --sim lip --robot {robot} --duration 10`, whole process", "s"),
+    ("process_mujoco_servo_s", "`ismpc run --sim mujoco --robot {robot} --duration 10 --whole-body servo`, whole process",
+     "s"),
+    ("process_mujoco_torque_s", "`ismpc run --sim mujoco --robot {robot} --duration 10`, whole process", "s"),
 )
 ROW_NAMES = tuple(name for name, _, _ in ROWS)
 
@@ -61,28 +62,28 @@ def commit() -> str | None:
     return f"{head}-dirty" if dirty else head
 
 
-def _lip_cycle(modules: tuple[str, ...]) -> dict:
+def _lip_cycle(robot: str, modules: tuple[str, ...]) -> dict:
     from ..runs.run import run
     from ..runs.spec import RunSpec
 
-    summary = run(RunSpec(robot="g1", sim="lip", modules=modules, command=WalkCommand(0.2), duration_s=20.0)).summary
+    summary = run(RunSpec(robot=robot, sim="lip", modules=modules, command=WalkCommand(0.2), duration_s=20.0)).summary
     return summary["cycle_ms"]
 
 
-def _mujoco_tick(whole_body: str) -> dict:
+def _mujoco_tick(robot: str, whole_body: str) -> dict:
     from ..runs.run import run
     from ..runs.spec import RunSpec
 
-    summary = run(RunSpec(robot="g1", sim="mujoco", command=WalkCommand(0.2), duration_s=5.0,
+    summary = run(RunSpec(robot=robot, sim="mujoco", command=WalkCommand(0.2), duration_s=5.0,
                           whole_body=whole_body)).summary
     phases = summary["time_per_tick_ms"]
     return {"tick_ms": round(sum(phases.values()), 4), "phases_ms": phases,
             "realtime_factor": summary["realtime_factor"], "fell": summary["fell"]}
 
 
-def _process_wall(extra: list[str]) -> float:
+def _process_wall(robot: str, extra: list[str]) -> float:
     with tempfile.TemporaryDirectory() as out:
-        command = [sys.executable, "-m", "robust_ismpc.cli", "run", "--robot", "g1", "--duration", "10",
+        command = [sys.executable, "-m", "robust_ismpc.cli", "run", "--robot", robot, "--duration", "10",
                    "--out", str(Path(out) / "run"), *extra]
         start = time.perf_counter()
         done = subprocess.run(command, capture_output=True, text=True)
@@ -92,13 +93,16 @@ def _process_wall(extra: list[str]) -> float:
     return wall
 
 
-def measure_speed(repeats: int = 1, mujoco: bool = False, progress: Callable[[str], None] | None = None) -> dict:
-    """Measure every row of :data:`ROWS` ``repeats`` times (the MuJoCo rows only with ``mujoco``).
+def measure_speed(repeats: int = 1, mujoco: bool = False, progress: Callable[[str], None] | None = None,
+                  robot: str = "g1") -> dict:
+    """Measure every row of :data:`ROWS` ``repeats`` times (the MuJoCo rows only with ``mujoco``)
+    on ``robot`` (a built-in robot's name or a robot file's path; its MuJoCo rows run the
+    robot file's own settings, such as its inverse-dynamics rate).
 
     Returns
     -------
     dict
-        ``rows``: row name -> median over the repeats; ``samples``: row name -> every
+        ``robot``; ``rows``: row name -> median over the repeats; ``samples``: row name -> every
         measurement; ``mujoco_phases_ms``: the torque loop's time per tick by phase (median run);
         ``repeats``.
     """
@@ -111,23 +115,23 @@ def measure_speed(repeats: int = 1, mujoco: bool = False, progress: Callable[[st
     say = progress or (lambda _: None)
     for k in range(repeats):
         say(f"speed table: repeat {k + 1}/{repeats}")
-        nominal = _lip_cycle(())
-        robust = _lip_cycle(("observer", "restriction", "timing"))
+        nominal = _lip_cycle(robot, ())
+        robust = _lip_cycle(robot, ("observer", "restriction", "timing"))
         samples["lip_cycle_nominal_median_ms"].append(nominal["median"])
         samples["lip_cycle_robust_median_ms"].append(robust["median"])
         samples["lip_cycle_robust_p99_ms"].append(robust["p99"])
         mpc = MpcParams(control_horizon_s=2.0, preview_horizon_s=3.5)
-        samples["bench_robust_c200_median_ms"].append(bench_robust("g1", mpc, 1000)["cycle_ms"]["median"])
-        samples["process_lip_s"].append(_process_wall(["--sim", "lip"]))
+        samples["bench_robust_c200_median_ms"].append(bench_robust(robot, mpc, 1000)["cycle_ms"]["median"])
+        samples["process_lip_s"].append(_process_wall(robot, ["--sim", "lip"]))
         if mujoco:
-            torque = _mujoco_tick("torque")
+            torque = _mujoco_tick(robot, "torque")
             phases.append(torque)
             samples["mujoco_torque_tick_ms"].append(torque["tick_ms"])
-            samples["mujoco_servo_tick_ms"].append(_mujoco_tick("servo")["tick_ms"])
-            samples["process_mujoco_servo_s"].append(_process_wall(["--sim", "mujoco", "--whole-body", "servo"]))
-            samples["process_mujoco_torque_s"].append(_process_wall(["--sim", "mujoco"]))
+            samples["mujoco_servo_tick_ms"].append(_mujoco_tick(robot, "servo")["tick_ms"])
+            samples["process_mujoco_servo_s"].append(_process_wall(robot, ["--sim", "mujoco", "--whole-body", "servo"]))
+            samples["process_mujoco_torque_s"].append(_process_wall(robot, ["--sim", "mujoco"]))
     rows = {name: round(statistics.median(values), 4) for name, values in samples.items() if values}
-    result: dict = {"repeats": repeats, "rows": rows,
+    result: dict = {"robot": robot, "repeats": repeats, "rows": rows,
                     "samples": {name: [round(v, 4) for v in values] for name, values in samples.items() if values}}
     if phases:
         middle = sorted(phases, key=lambda p: p["tick_ms"])[len(phases) // 2]
@@ -153,12 +157,15 @@ def compare_speed(current: dict, baseline: dict) -> list[dict]:
     Raises
     ------
     ParameterError
-        The baseline has no speed table.
+        The baseline has no speed table, or measured another robot.
     """
     try:
         before = baseline["speed"]["rows"]
     except (KeyError, TypeError):
         raise ParameterError("--baseline: that bench.json has no speed table (written by an older ismpc bench?)") from None
+    robots = (baseline["speed"].get("robot", "g1"), current["speed"].get("robot", "g1"))
+    if robots[0] != robots[1]:
+        raise ParameterError(f"--baseline measured robot {robots[0]!r}, this bench {robots[1]!r}: compare the same robot")
     now = current["speed"]["rows"]
     out = []
     for name in ROW_NAMES:
@@ -171,7 +178,8 @@ def compare_speed(current: dict, baseline: dict) -> list[dict]:
 
 def format_speed(speed: dict, comparison: list[dict] | None = None) -> str:
     """Markdown table of a speed table, with the baseline columns when compared."""
-    labels = {name: (what, unit) for name, what, unit in ROWS}
+    robot = str(speed.get("robot", "g1"))
+    labels = {name: (what.replace("{robot}", robot), unit) for name, what, unit in ROWS}
     lines = [f"Speed (median of {speed['repeats']} run{'s' if speed['repeats'] > 1 else ''}):", ""]
     by_row = {c["row"]: c for c in comparison or []}
     if comparison is not None:
