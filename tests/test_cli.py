@@ -112,7 +112,7 @@ def test_bench_writes_json(tmp_path):
     assert "mujoco_torque_tick_ms" not in rows  # only with --mujoco
 
 
-def test_bench_times_the_robot_it_is_given(tmp_path, capsys):
+def test_bench_times_the_robot_it_is_given(tmp_path):
     """--robot applies to the speed table too: its rows are op3's, named so in the table, and a
     baseline measured on another robot is refused."""
     argv = ["bench", "--robot", "op3", "--horizons", "20", "--cycles", "50", "--solvers", "daqp", "--out", str(tmp_path)]
