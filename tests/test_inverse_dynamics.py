@@ -100,6 +100,41 @@ def test_the_soles_carry_the_weight_the_feet_weigh_beyond_the_model(g1_spec):
     assert abs(centre_loaded - centre_model) < 0.005
 
 
+def test_a_com_model_error_and_the_moment_it_makes_measured_cancel(g1_spec):
+    """The QP's model shares the controller's CoM error e (its weight acts at c + e): alone, that
+    moves the centre of the soles' vertical forces by e; with the external moment the error makes
+    the observer measure (the true weight about the model's CoM, -η² e as an LIP acceleration) the
+    two cancel, and the sole wrenches are those of an exact model with no disturbance."""
+    import dataclasses
+
+    from robust_ismpc.sim.whole_body.inverse_dynamics import InverseDynamicsQp
+
+    settings = TorqueControlSettings()
+    sim = MujocoSimulation(g1_spec, settings=LoopSettings(torque_control=settings))
+    controller = ComShiftController(g1_spec, (0.0, 0.0))
+    for _ in range(30):
+        step_simulation(sim, controller, 0.01)
+    error = np.array([0.004, 0.01])
+    eta2 = 9.81 / g1_spec.com_height_m
+    measured = -eta2 * error  # the moment part of the estimate, all of it
+
+    def solve(model_error, disturbance):
+        qp = InverseDynamicsQp(sim.robot, sim.actuators, settings, tuple(model_error))
+        reference = dataclasses.replace(sim._reference, disturbance_mps2=disturbance, disturbance_moment_mps2=disturbance)
+        qp.torques(reference, sim._ik_qpos, sim._ik_qvel, sim._ik_qacc)
+        wrenches = np.concatenate([qp.last_wrenches[side] for side in ("left", "right")])
+        fz = sum(w[2] for w in qp.last_wrenches.values())
+        centre = [sum(qp.robot.sole_frame(side)[0][0] * w[2] - w[4] for side, w in qp.last_wrenches.items()) / fz,
+                  sum(qp.robot.sole_frame(side)[0][1] * w[2] + w[3] for side, w in qp.last_wrenches.items()) / fz]
+        return wrenches, np.array(centre)
+
+    exact, centre_exact = solve((0.0, 0.0), np.zeros(2))
+    cancelled, _ = solve(error, measured)
+    _, centre_shifted = solve(error, np.zeros(2))
+    np.testing.assert_allclose(cancelled, exact, atol=1e-6 * np.abs(exact).max())
+    np.testing.assert_allclose(centre_shifted - centre_exact, error, rtol=0.1)
+
+
 def test_one_inverse_dynamics_qp_per_physics_step(g1_spec):
     """Torque control solves the inverse-dynamics QP once per physics step, not again when a
     new reference arrives (an operation count, the CI's speed regression check)."""

@@ -99,7 +99,9 @@ class LoopSettings:
         Horizontal offset (x, y) [m] of the CoM the controller's model computes from the true one
         (a mass-model error; :attr:`~robust_ismpc.robots.sensing.Sensors.com_bias_m`). The whole
         body then tracks the reference with that CoM, as the planner reads it: the robot's true
-        CoM follows the reference shifted by minus the offset. Zero by default.
+        CoM follows the reference shifted by minus the offset; and the inverse dynamics' model
+        has the same error (:class:`~robust_ismpc.sim.whole_body.inverse_dynamics.InverseDynamicsQp`).
+        Zero by default.
     """
 
     control_period_s: float = 0.01
@@ -267,7 +269,8 @@ class MujocoSimulation:
         #: Physics steps per inverse-dynamics solve (its command is held in between).
         self.inverse_dynamics_steps = _inverse_dynamics_steps(spec, timestep)
         if self.settings.torque_control is not None:
-            self.inverse_dynamics = InverseDynamicsQp(self.robot, self.actuators, self.settings.torque_control)
+            self.inverse_dynamics = InverseDynamicsQp(self.robot, self.actuators, self.settings.torque_control,
+                                                      self.settings.com_model_error_m)
         self.reset()
 
     def reset(self) -> None:

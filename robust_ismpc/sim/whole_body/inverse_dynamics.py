@@ -196,9 +196,18 @@ class InverseDynamicsQp:
         Actuator ↔ joint indices of the simulation and IK models (the actuators' order is the
         order of the returned torques).
     settings : TorqueControlSettings
+    com_model_error_m : tuple of float
+        Horizontal offset (x, y) [m] of the CoM the controller's mass model computes from the
+        true one (:attr:`~robust_ismpc.sim.loop.LoopSettings.com_model_error_m`). The QP's model
+        shares that error: it believes the robot's weight acts at the CoM plus the offset, the
+        moment ``e × m g`` about the true CoM. The measured external moment holds the opposite
+        moment (the true weight about the model's CoM), so the two cancel in the QP, as on a robot
+        whose controller and whole body use one mass model; without it the QP would push the
+        robot with a moment no body exerts.
     """
 
-    def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings) -> None:
+    def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings,
+                 com_model_error_m: tuple[float, float] = (0.0, 0.0)) -> None:
         self.settings = settings
         self.scene_data = robot.data
         self.model = copy.deepcopy(compile_model(robot.spec))
@@ -226,6 +235,11 @@ class InverseDynamicsQp:
         self._jac_torso = np.zeros((3, nv))
         self._jac_torso_rot = np.zeros((3, nv))
         self._jac_load = np.zeros((3, nv))
+        self._jac_root_rot = np.zeros((3, nv))
+        error = np.asarray(com_model_error_m, dtype=float)
+        weight_n = self.robot.mass_kg * GRAVITY_MPS2
+        # e × (0, 0, -m g): the model's weight at c + e, as a moment about the true CoM
+        self._model_error_moment_nm = weight_n * np.array([-error[1], error[0], 0.0])
         # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
         # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
@@ -318,6 +332,9 @@ class InverseDynamicsQp:
             # the weight the model lacks (or has in excess), at the CoM: a load, not a moment
             mujoco.mj_jac(m, d, self._jac_load, None, d.subtree_com[self._root], self._root)
             bias = bias + self._jac_load[2] * (load_kg * GRAVITY_MPS2)
+        if np.any(self._model_error_moment_nm):
+            mujoco.mj_jacBody(m, d, None, self._jac_root_rot, self._root)
+            bias = bias - self._jac_root_rot.T @ self._model_error_moment_nm
         # the disturbance the plan was made for, on the torso: its moment part as a moment
         # (τ_y, -τ_x) = m h w_moment, the rest as a force m w_force at the CoM's height
         if np.any(reference.disturbance_mps2):
