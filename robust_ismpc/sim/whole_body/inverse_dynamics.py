@@ -200,7 +200,8 @@ class InverseDynamicsQp:
         Horizontal offset (x, y) [m] of the CoM the controller's mass model computes from the
         true one (:attr:`~robust_ismpc.sim.loop.LoopSettings.com_model_error_m`). The QP's model
         shares that error: it believes the robot's weight acts at the CoM plus the offset, the
-        moment ``e × m g`` about the true CoM. The measured external moment holds the opposite
+        moment ``e × m g`` about the true CoM, which it applies to the torso body as it does the
+        measured external moment. That one holds the opposite
         moment (the true weight about the model's CoM), so the two cancel in the QP, as on a robot
         whose controller and whole body use one mass model; without it the QP would push the
         robot with a moment no body exerts.
@@ -235,11 +236,11 @@ class InverseDynamicsQp:
         self._jac_torso = np.zeros((3, nv))
         self._jac_torso_rot = np.zeros((3, nv))
         self._jac_load = np.zeros((3, nv))
-        self._jac_root_rot = np.zeros((3, nv))
         error = np.asarray(com_model_error_m, dtype=float)
         weight_n = self.robot.mass_kg * GRAVITY_MPS2
         # e × (0, 0, -m g): the model's weight at c + e, as a moment about the true CoM
         self._model_error_moment_nm = weight_n * np.array([-error[1], error[0], 0.0])
+        self._has_model_error = bool(np.any(self._model_error_moment_nm))
         # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
         # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
@@ -332,17 +333,20 @@ class InverseDynamicsQp:
             # the weight the model lacks (or has in excess), at the CoM: a load, not a moment
             mujoco.mj_jac(m, d, self._jac_load, None, d.subtree_com[self._root], self._root)
             bias = bias + self._jac_load[2] * (load_kg * GRAVITY_MPS2)
-        if np.any(self._model_error_moment_nm):
-            mujoco.mj_jacBody(m, d, None, self._jac_root_rot, self._root)
-            bias = bias - self._jac_root_rot.T @ self._model_error_moment_nm
-        # the disturbance the plan was made for, on the torso: its moment part as a moment
-        # (τ_y, -τ_x) = m h w_moment, the rest as a force m w_force at the CoM's height
-        if np.any(reference.disturbance_mps2):
-            moment = np.asarray(reference.disturbance_moment_mps2, dtype=float)[:2]
-            force = np.asarray(reference.disturbance_mps2, dtype=float)[:2] - moment
+        # the moments on the robot act on the torso body, where the measured moment they cancel
+        # is applied: the model error's weight moment, then the disturbance the plan was made
+        # for, its moment part as a moment (τ_y, -τ_x) = m h w_moment and the rest as a force
+        # m w_force at the CoM's height
+        disturbed = bool(np.any(reference.disturbance_mps2))
+        if disturbed or self._has_model_error:
             torso = self.robot.torso_id
             point = np.array([*d.xipos[torso][:2], d.subtree_com[self._root][2]])
             mujoco.mj_jac(m, d, self._jac_torso, self._jac_torso_rot, point, torso)
+        if self._has_model_error:
+            bias = bias - self._jac_torso_rot.T @ self._model_error_moment_nm
+        if disturbed:
+            moment = np.asarray(reference.disturbance_moment_mps2, dtype=float)[:2]
+            force = np.asarray(reference.disturbance_mps2, dtype=float)[:2] - moment
             mass_kg = self.robot.mass_kg
             wrench_force = mass_kg * np.array([force[0], force[1], 0.0])
             wrench_moment = mass_kg * self.robot.spec.com_height_m * np.array([-moment[1], moment[0], 0.0])
