@@ -162,6 +162,17 @@ def _draw_run(axes, trace: Trace, title: str) -> None:
     ax_w.legend(loc="best", fontsize=7)
 
 
+def _draw_read_velocity(ax, trace: Trace) -> None:
+    """The CoM velocity the controller read (its sensors and estimate) against the true one."""
+    t = trace["t_s"]
+    for axis, color in ((0, "tab:blue"), (1, "tab:red")):
+        ax.plot(t, trace["com_vel_read_mps"][:, axis], color=color, lw=0.5, alpha=0.5, label=f"ċ_{'xy'[axis]} read")
+        ax.plot(t, trace["com_vel_mps"][:, axis], color=color, lw=1.2, label=f"ċ_{'xy'[axis]} true")
+    ax.set_ylabel("CoM velocity [m/s]")
+    ax.set_xlabel("t [s]")
+    ax.legend(loc="best", fontsize=7, ncol=2)
+
+
 def _window(trace: Trace, t_start: float) -> Trace:
     """``trace`` from ``t_start`` on (the same object if that is all of it)."""
     t = trace["t_s"]
@@ -185,22 +196,26 @@ def _draw_overview(ax, trace: Trace, t_start: float) -> None:
 
 def plot_run(trace: Trace, path: str | Path, title: str | None = None) -> Path:
     """Write the gait figure of one run: top view; x, y over time with ZMP bounds, DCM and
-    feasibility region; applied, measured (ŵ) and planned (w̃) disturbance. The title is
+    feasibility region; applied, measured (ŵ) and planned (w̃) disturbance; with sensing other
+    than ``ideal``, the CoM velocity the controller read against the true one. The title is
     ``title`` (default: robot / simulator / controller) followed by what happened
     (:func:`run_outcome`). A run longer than :data:`LONG_RUN_S` is drawn over its last
     :data:`DETAIL_S` seconds, with the CoM of the whole run (decimated) in an extra panel."""
     plt = pyplot()
     t_start, _ = detail_window(trace)
     long_run = len(trace) > 0 and t_start > trace["t_s"][0]
-    fig = plt.figure(figsize=(11, 12 if long_run else 10))
-    ratios = [1.4, 1, 1, 0.8] + ([0.8] if long_run else [])
+    sensed = (trace.meta.get("sensing") or {}).get("name", "ideal") != "ideal"
+    fig = plt.figure(figsize=(11, 10 + 2 * long_run + 2 * sensed))
+    ratios = [1.4, 1, 1, 0.8] + ([0.8] if sensed else []) + ([0.8] if long_run else [])
     grid = fig.add_gridspec(len(ratios), 1, height_ratios=ratios)
     axes = [fig.add_subplot(grid[0])]
     axes.append(fig.add_subplot(grid[1]))
     axes.append(fig.add_subplot(grid[2], sharex=axes[1]))
     axes.append(fig.add_subplot(grid[3], sharex=axes[1]))
+    if sensed:
+        _draw_read_velocity(fig.add_subplot(grid[4], sharex=axes[1]), _window(trace, t_start))
     if long_run:
-        _draw_overview(fig.add_subplot(grid[4]), trace, t_start)
+        _draw_overview(fig.add_subplot(grid[len(ratios) - 1]), trace, t_start)
     meta = trace.meta
     sim = meta.get("sim")
     if sim == "mujoco" and meta.get("whole_body", "servo") != "servo":

@@ -16,9 +16,15 @@ and returns the one the controller gets, with
 - white noise on the measured soles and the centre of pressure,
 - a latency: the controller gets the reading of ``latency_s`` ago.
 
+On a robot with joints (MuJoCo) the sensors themselves are modelled too: encoders, a pelvis IMU
+and the foot contacts feed a state estimator (:mod:`robust_ismpc.sim.state_estimation`), whose
+errors replace the CoM position, sole and CoP noise above
+(:meth:`SensingParams.for_estimated_state`); the rest of the list still applies.
+
 :data:`SENSING_PRESETS` names the models a run may ask for: ``ideal`` (the simulator's ground
 truth, for tests and for comparisons with the paper) and ``realistic`` (the orders of magnitude of
-a humanoid's state estimate, below). Noise is drawn from the run's seed, so a run is reproducible.
+a humanoid's sensors and state estimate, below). Noise is drawn from the run's seed, so a run is
+reproducible.
 """
 
 from __future__ import annotations
@@ -34,6 +40,10 @@ from ..core.reference import Measurement
 from ..estimation.estimator import EstimatorParams
 from ..exceptions import ParameterError
 from ..validation import check_nonnegative
+
+#: The fields that model the sensors themselves (encoders, IMU) rather than the estimate.
+_SENSOR_FIELDS = ("joint_pos_resolution_rad", "joint_vel_noise_radps", "gyro_noise_radps", "gyro_bias_radps",
+                  "accel_noise_mps2", "accel_bias_mps2", "imu_tilt_error_rad", "imu_orientation_noise_rad")
 
 
 @dataclass(frozen=True)
@@ -58,6 +68,27 @@ class SensingParams:
         σ of the measured soles and centre of pressure, per axis and tick [m].
     latency_s : float
         Age of the reading the controller gets [s]; a whole number of control periods.
+    joint_pos_resolution_rad : float
+        Encoder resolution: joint positions are read rounded to it [rad].
+    joint_vel_noise_radps : float
+        σ of the joint velocities the motor drivers report [rad/s].
+    gyro_noise_radps, gyro_bias_radps : float
+        σ of the IMU's angular velocity per axis and sample, and the length of its constant bias
+        (direction drawn once per run) [rad/s].
+    accel_noise_mps2, accel_bias_mps2 : float
+        σ of the IMU's specific force per axis and sample, and the length of its constant bias
+        [m/s²].
+    imu_tilt_error_rad : float
+        Constant error of the roll and pitch the IMU's attitude filter reports (its direction drawn
+        once per run) [rad].
+    imu_orientation_noise_rad : float
+        σ of the white noise on the IMU's orientation, per axis and sample [rad].
+
+    The last eight describe the sensors themselves. When any of them is set, a MuJoCo run
+    estimates the robot's state from those sensors (:mod:`robust_ismpc.sim.state_estimation`)
+    and the CoM, its velocity and the soles carry the estimate's own errors; the three stand-ins
+    for them (``com_pos_noise_m``, ``com_vel_noise_mps``, ``position_noise_m``) are then what the
+    reduced model, which has no joints, reads instead (:meth:`for_estimated_state`).
     """
 
     name: str = "ideal"
@@ -67,19 +98,44 @@ class SensingParams:
     contact_force_noise: float = 0.0
     position_noise_m: float = 0.0
     latency_s: float = 0.0
+    joint_pos_resolution_rad: float = 0.0
+    joint_vel_noise_radps: float = 0.0
+    gyro_noise_radps: float = 0.0
+    gyro_bias_radps: float = 0.0
+    accel_noise_mps2: float = 0.0
+    accel_bias_mps2: float = 0.0
+    imu_tilt_error_rad: float = 0.0
+    imu_orientation_noise_rad: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"SensingParams.name must be a non-empty string, got {self.name!r}")
         check_nonnegative("SensingParams", com_pos_noise_m=self.com_pos_noise_m, com_pos_bias_m=self.com_pos_bias_m,
                           com_vel_noise_mps=self.com_vel_noise_mps, contact_force_noise=self.contact_force_noise,
-                          position_noise_m=self.position_noise_m, latency_s=self.latency_s)
+                          position_noise_m=self.position_noise_m, latency_s=self.latency_s,
+                          **{name: getattr(self, name) for name in _SENSOR_FIELDS})
 
     @property
     def is_ideal(self) -> bool:
         """True when the controller reads the true state."""
-        return all(v == 0 for v in (self.com_pos_noise_m, self.com_pos_bias_m, self.com_vel_noise_mps,
-                                    self.contact_force_noise, self.position_noise_m, self.latency_s))
+        return not self.models_sensors and all(
+            v == 0 for v in (self.com_pos_noise_m, self.com_pos_bias_m, self.com_vel_noise_mps,
+                             self.contact_force_noise, self.position_noise_m, self.latency_s))
+
+    @property
+    def models_sensors(self) -> bool:
+        """True when the encoders or the IMU are imperfect: a robot with joints then estimates its
+        state from them."""
+        return any(getattr(self, name) != 0 for name in _SENSOR_FIELDS)
+
+    def for_estimated_state(self) -> SensingParams:
+        """The signal model left when the state is estimated from the sensors: the stand-ins for
+        the estimate's position errors (CoM, soles, CoP) removed; the CoM bias (a mass-model
+        error), the foot force-torque noise, the latency and the CoM velocity noise kept. The
+        simulated robot is rigid and its soles do not roll: the estimate's velocity error there
+        (3-5 mm/s on G1) is far below a real robot's, whose joints flex and have backlash, and the
+        velocity noise stands for that remainder."""
+        return replace(self, com_pos_noise_m=0.0, position_noise_m=0.0)
 
     def estimator_params(self, base: EstimatorParams) -> EstimatorParams:
         """The estimator a controller reading these sensors uses: ``base`` (the model's own
@@ -110,11 +166,16 @@ class SensingParams:
 #: leg kinematics is good to a few cm/s (3 cm/s here), the CoM computed from a mass model is off
 #: by about 1 cm, foot force-torque sensors read to about 2 % of the weight, encoders and
 #: kinematics place the feet to a few mm, and sensing, estimation and communication add about
-#: one control period of delay (10 ms).
+#: one control period of delay (10 ms). Its sensors: 14-bit joint encoders, joint velocities to
+#: 0.02 rad/s, and a MEMS IMU (gyroscope 0.005 rad/s noise and 0.002 rad/s bias, accelerometer
+#: 0.03 m/s² noise and 0.05 m/s² bias, attitude to 0.3° of tilt).
 SENSING_PRESETS: dict[str, SensingParams] = {
     "ideal": SensingParams(),
     "realistic": SensingParams(name="realistic", com_pos_noise_m=0.002, com_pos_bias_m=0.01, com_vel_noise_mps=0.03,
-                               contact_force_noise=0.02, position_noise_m=0.002, latency_s=0.01),
+                               contact_force_noise=0.02, position_noise_m=0.002, latency_s=0.01,
+                               joint_pos_resolution_rad=2.0 * math.pi / 2**14, joint_vel_noise_radps=0.02,
+                               gyro_noise_radps=0.005, gyro_bias_radps=0.002, accel_noise_mps2=0.03,
+                               accel_bias_mps2=0.05, imu_tilt_error_rad=0.005, imu_orientation_noise_rad=0.001),
 }
 
 

@@ -183,7 +183,9 @@ def run_mujoco_spec(
     start_walk(controller, spec.command, spec.duration_s, left0.pos_m[:2], right0.pos_m[:2], yaw0, com0[:2])
 
     forces = [Force(f.fx_n, f.fy_n, f.t_start_s, f.t_end_s) for f in spec.forces]
-    sensors = Sensors(sensing, dt, params.eta, spec.seed)
+    # with the encoders and the IMU modelled the simulation estimates the state from them; the
+    # signal model then adds what the estimate does not make (CoM bias, force noise, latency)
+    sensors = Sensors(sensing.for_estimated_state() if sensing.models_sensors else sensing, dt, params.eta, spec.seed)
     loop = LoopSettings(
         control_period_s=dt, ik=settings.ik, fall=settings.fall, foot_friction=robot_spec.foot_friction,
         dynamic_feedforward=robot_spec.servo_dynamic_feedforward,
@@ -193,7 +195,7 @@ def run_mujoco_spec(
     )
     forces += scene_forces(scene_items)
     sim = MujocoSimulation(robot_spec, disturbances=forces, scene_items=scene_items, settings=loop,
-                          mismatch=spec.mismatch)
+                          mismatch=spec.mismatch, sensing=sensing, sensing_seed=spec.seed)
     monitor = SceneMonitor(sim.model, scene_items) if scene_items else None
     mass = sim.robot.mass_kg
     diagnostics = ModelDiagnostics(sim.model, sim.robot.robot_body_ids, mass * GRAVITY_MPS2)
@@ -217,9 +219,14 @@ def run_mujoco_spec(
             t_s = k * dt
             a = time.perf_counter()
             measurement, contacts = sim.measure()
-            left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
+            left_sole, right_sole = sim.sensed_robot.sole_pose("left"), sim.sensed_robot.sole_pose("right")
             measurement = replace(measurement, left_sole_m=left_sole.pos_m[:2], right_sole_m=right_sole.pos_m[:2])
             reading = sensors.read(measurement)
+            if sim.estimator is not None:  # the record keeps the truth beside what was read
+                true_com, true_vel = robot.com()
+                zmp_true = contacts.cop_m
+                left_sole, right_sole = robot.sole_pose("left"), robot.sole_pose("right")
+                measurement = replace(measurement, com_pos_m=true_com, com_vel_mps=true_vel, zmp_m=zmp_true)
             polygon = robot.support_polygon(contacts)
             violation = math.nan if contacts.cop_m is None else distance_outside(contacts.cop_m, polygon)
             b = time.perf_counter()

@@ -37,12 +37,14 @@ from ..core.reference import GaitReference, Measurement
 from ..estimation.weight import weigh
 from ..exceptions import ParameterError
 from ..robots.mismatch import NO_MISMATCH, ModelMismatch
+from ..robots.sensing import SensingParams
 from ..robots.spec import RobotSpec
 from .forces import Disturbance, ForceSchedule
 from .mismatch import apply_mismatch
 from .model import compile_model
-from .robot import ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
+from .robot import SIDES, ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
 from .scene import SceneItem, build_scene, set_scene_initial_state
+from .state_estimation import SensedState
 from .video import VideoRecorder
 from .whole_body.actuators import ActuatorMap, actuator_torque_limits_nm
 from .whole_body.ik import IkSettings, WholeBodyIk
@@ -227,6 +229,14 @@ class MujocoSimulation:
     mismatch : ModelMismatch
         How the simulated robot differs from the model the controller, the whole body and the
         measurement use (:mod:`robust_ismpc.robots.mismatch`); none by default.
+    sensing : SensingParams or None
+        The robot's sensors. When they model the encoders and the IMU
+        (:attr:`~robust_ismpc.robots.sensing.SensingParams.models_sensors`), the measurement, the
+        IK's base feedback and the inverse dynamics read the state the robot estimates from them
+        (:class:`~robust_ismpc.sim.state_estimation.SensedState`); otherwise (default) the
+        simulator's state.
+    sensing_seed : int
+        Seed of the sensors' noise and biases.
     """
 
     def __init__(
@@ -236,6 +246,8 @@ class MujocoSimulation:
         scene_items: Sequence[SceneItem] = (),
         settings: LoopSettings | None = None,
         mismatch: ModelMismatch = NO_MISMATCH,
+        sensing: SensingParams | None = None,
+        sensing_seed: int = 0,
     ) -> None:
         self.spec = spec
         self.settings = settings or LoopSettings()
@@ -265,18 +277,26 @@ class MujocoSimulation:
         self.actuators = ActuatorMap(self.model, self.ik.model)
         self.forces = ForceSchedule(self.model, disturbances, spec.torso_body)
         self.scene_items = tuple(scene_items)
+        #: The state estimate from the robot's sensors (None: the controller reads the simulator's state).
+        self.estimator: SensedState | None = None
+        if sensing is not None and sensing.models_sensors:
+            self.estimator = SensedState(spec, sensing, self.model, self.data, sensing_seed)
+        #: The robot as the controller computes it: :attr:`robot` itself, or the estimate's.
+        self.sensed_robot = self.robot if self.estimator is None else self.estimator.robot
         self.inverse_dynamics: InverseDynamicsQp | None = None
         #: Physics steps per inverse-dynamics solve (its command is held in between).
         self.inverse_dynamics_steps = _inverse_dynamics_steps(spec, timestep)
         if self.settings.torque_control is not None:
             self.inverse_dynamics = InverseDynamicsQp(self.robot, self.actuators, self.settings.torque_control,
-                                                      self.settings.com_model_error_m)
+                                                      self.settings.com_model_error_m, self.estimator)
         self.reset()
 
     def reset(self) -> None:
         """Standing posture, soles on the floor, IK reference at the same posture, time 0."""
         standing_state(self.spec, self.model, self.data)
         set_scene_initial_state(self.model, self.data, self.scene_items)
+        if self.estimator is not None:
+            self.estimator.reset()
         self.ik.reset()
         self._ik_qpos = self.ik.qpos
         self._ik_qvel = np.zeros(self.ik.model.nv)
@@ -330,7 +350,7 @@ class MujocoSimulation:
         if any(self.settings.com_model_error_m):  # the whole body reads the CoM as c + e: track c_ref - e
             error = np.array([*self.settings.com_model_error_m, 0.0])
             reference = replace(reference, com_pos_m=np.asarray(reference.com_pos_m, dtype=float) - error)
-        qpos = self.ik.step(reference, dt, self.robot.base_qpos())
+        qpos = self.ik.step(reference, dt, self.sensed_robot.base_qpos())
         self._targets = self.actuators.targets(qpos)
         qvel = np.empty(self.ik.model.nv)
         mujoco.mj_differentiatePos(self.ik.model, qvel, dt, self._ik_qpos, qpos)
@@ -380,7 +400,13 @@ class MujocoSimulation:
             # state the step started from: the forces the step applied, and where
             contacts = self.robot.contacts()
             contact_force += contacts.force_n
-            contact_moment += contacts.moment_about(self.robot.com_position())
+            if self.estimator is None:
+                contact_moment += contacts.moment_about(self.robot.com_position())
+            else:
+                self.estimator.update((contacts.left_force_n, contacts.right_force_n))
+                # about the estimated CoM, the contacts placed where the estimate puts the soles
+                contact_moment += contacts.moment_about(self.sensed_robot.com_position()
+                                                        - self._sole_offset_m(contacts))
             if recorder is not None and recorder.due(self.data.time):
                 start = time.perf_counter()
                 recorder.capture(self.data)
@@ -391,6 +417,19 @@ class MujocoSimulation:
                                      self.settings.control_period_s)
         self._mean_contact_moment_nm = contact_moment / self.substeps
         return force, render_s
+
+    def _sole_offset_m(self, contacts: ContactState) -> np.ndarray:
+        """Where the estimate puts the loaded soles minus where they are [m], shape (3,), weighted
+        by their normal forces (the root's offset when airborne)."""
+        assert self.estimator is not None
+        total = contacts.left_force_n + contacts.right_force_n
+        if total <= 0.0:
+            return self.sensed_robot.base_qpos()[:3] - self.robot.base_qpos()[:3]
+        offset = np.zeros(3)
+        for side, force in zip(SIDES, (contacts.left_force_n, contacts.right_force_n)):
+            if force > 0.0:
+                offset += force / total * self.estimator.offset_m(side, self.robot)
+        return offset
 
     def measure(self) -> tuple[Measurement, ContactState]:
         """The controller's measurement at the current state (:meth:`MujocoRobot.measure`) with
@@ -407,11 +446,17 @@ class MujocoSimulation:
         weight those contacts bear.
         """
         moment_acc = None
-        robot = self.robot
         mass_kg = self.weighed_mass_kg
-        measurement, contacts = robot.measure(mean_horizontal_force_n=self.mean_horizontal_contact_force_n,
-                                              mass_kg=mass_kg)
-        momentum = robot.angular_momentum()
+        measurement, contacts = self.robot.measure(mean_horizontal_force_n=self.mean_horizontal_contact_force_n,
+                                                   mass_kg=mass_kg)
+        if self.estimator is not None:  # the state the robot estimates, the contacts placed in it
+            self.estimator.refresh()
+            com, vel = self.sensed_robot.com()
+            zmp = measurement.zmp_m
+            if zmp is not None:
+                zmp = zmp + self._sole_offset_m(contacts)[:2]
+            measurement = replace(measurement, com_pos_m=com, com_vel_mps=vel, zmp_m=zmp)
+        momentum = self.sensed_robot.angular_momentum()
         if self._previous_momentum is not None and self._mean_contact_moment_nm is not None:
             torque = (momentum - self._previous_momentum) / self.settings.control_period_s - self._mean_contact_moment_nm
             moment_acc = np.array([torque[1], -torque[0]]) / (mass_kg * self.spec.com_height_m)

@@ -45,6 +45,7 @@ from ...exceptions import ParameterError, SolverError
 from ...validation import check_nonnegative
 from ..model import compile_model
 from ..robot import MujocoRobot
+from ..state_estimation import RobotState, TrueState
 from .actuators import ActuatorMap, actuator_torque_limits_nm
 from .motor_command import MotorCommand, held_command
 
@@ -151,26 +152,6 @@ def _yaw_matrix(yaw_rad: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _state_index(model: mujoco.MjModel, scene: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
-    """Indices into the scene's ``qpos`` and ``qvel`` of every coordinate of ``model``, whose
-    joints the scene has under the same names (its free joint: the one of the same body)."""
-    qpos, qvel = [], []
-    for j in range(model.njnt):
-        name = model.joint(j).name
-        if name:
-            k = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_JOINT, name)
-        else:
-            body = mujoco.mj_name2id(scene, mujoco.mjtObj.mjOBJ_BODY, model.body(model.jnt_bodyid[j]).name)
-            k = int(scene.body_jntadr[body]) if body >= 0 else -1
-        if k < 0 or scene.jnt_type[k] != model.jnt_type[j]:
-            raise ParameterError(f"joint {name or j!r} of the robot is not in the simulated scene")
-        n_q = {0: 7, 1: 4}.get(int(model.jnt_type[j]), 1)
-        n_v = {0: 6, 1: 3}.get(int(model.jnt_type[j]), 1)
-        qpos += range(int(scene.jnt_qposadr[k]), int(scene.jnt_qposadr[k]) + n_q)
-        qvel += range(int(scene.jnt_dofadr[k]), int(scene.jnt_dofadr[k]) + n_v)
-    return np.array(qpos, dtype=int), np.array(qvel, dtype=int)
-
-
 class InverseDynamicsQp:
     """Joint torques that realise a gait reference on a torque-controlled MuJoCo robot.
 
@@ -205,10 +186,13 @@ class InverseDynamicsQp:
         moment (the true weight about the model's CoM), so the two cancel in the QP, as on a robot
         whose controller and whole body use one mass model; without it the QP would push the
         robot with a moment no body exerts.
+    state : TrueState or SensedState, optional
+        Where the QP reads the robot's configuration and velocity
+        (:mod:`robust_ismpc.sim.state_estimation`); the simulator's state by default.
     """
 
     def __init__(self, robot: MujocoRobot, actuators: ActuatorMap, settings: TorqueControlSettings,
-                 com_model_error_m: tuple[float, float] = (0.0, 0.0)) -> None:
+                 com_model_error_m: tuple[float, float] = (0.0, 0.0), state: RobotState | None = None) -> None:
         self.settings = settings
         self.scene_data = robot.data
         self.model = copy.deepcopy(compile_model(robot.spec))
@@ -217,7 +201,7 @@ class InverseDynamicsQp:
         self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
         self.data = mujoco.MjData(self.model)
         self.robot = MujocoRobot(robot.spec, self.model, self.data)
-        self._scene_qpos, self._scene_qvel = _state_index(self.model, robot.model)
+        self.state: RobotState = TrueState(self.model, robot.model, robot.data) if state is None else state
         self.actuators = actuators
         model = self.model
         own = ActuatorMap(model, model)  # the same actuators, indexed in the robot's own model
@@ -316,8 +300,8 @@ class InverseDynamicsQp:
         m, d, s = self.model, self.data, self.settings
         self.solve_count += 1
         scene = self.scene_data
-        d.qpos[:] = scene.qpos[self._scene_qpos]
-        d.qvel[:] = scene.qvel[self._scene_qvel]
+        d.qpos[:] = self.state.qpos
+        d.qvel[:] = self.state.qvel
         d.time = scene.time
         mujoco.mj_forward(m, d)
         nv = m.nv
