@@ -98,3 +98,18 @@ def test_bad_filter_inputs_are_refused():
         BaseStateFilter(BaseFilterParams(), DT, np.zeros(2))
     with pytest.raises(ParameterError):
         BaseStateFilter(object(), DT, np.zeros(3))  # type: ignore[arg-type]
+
+
+def test_the_update_is_the_textbook_kalman_update():
+    """The written-out 2 × 2 update equals K = P (P + R)⁻¹, x += K (z − x), P = (I − K) P."""
+    rng = np.random.default_rng(1)
+    f = BaseStateFilter(BaseFilterParams(), DT, np.zeros(3))
+    f.covariance = np.array([[2e-5, 3e-5], [3e-5, 4e-3]])
+    P, p0, v0 = f.covariance.copy(), f.position_m.copy(), f.velocity_mps.copy()
+    z_p, z_v = 0.01 * rng.standard_normal(3), 0.1 * rng.standard_normal(3)
+    f._update(z_p, z_v, 1e-5, 2e-3)
+    K = P @ np.linalg.inv(P + np.diag([1e-5, 2e-3]))
+    correction = K @ np.stack([z_p - p0, z_v - v0])
+    np.testing.assert_allclose(f.position_m, p0 + correction[0], atol=1e-15)
+    np.testing.assert_allclose(f.velocity_mps, v0 + correction[1], atol=1e-15)
+    np.testing.assert_allclose(f.covariance, (np.eye(2) - K) @ P, atol=1e-18)

@@ -60,6 +60,30 @@ def test_long_run_figure_shows_the_last_seconds_and_an_overview(tmp_path, monkey
     assert len(figures[-1].axes) == 4
 
 
+def test_with_imperfect_sensing_the_gait_figure_shows_the_velocity_read_against_the_truth(tmp_path, monkeypatch):
+    """A run under a sensing model other than ideal gets a panel with the CoM velocity the
+    controller read beside the true one (both drawn, per axis); an ideal run does not."""
+    import matplotlib.figure
+
+    figures = []
+    original = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig",
+                        lambda fig, *a, **k: (figures.append(fig), original(fig, *a, **k))[1])
+    trace = _walk_trace(10.0)
+    trace.channels["com_vel_mps"][:, 0] = 0.2
+    trace.channels["com_vel_read_mps"][:, 0] = 0.2 + 0.03 * np.sin(trace.channels["t_s"] * 40.0)
+    trace.meta["sensing"] = {"name": "realistic"}
+    plot_run(trace, tmp_path / "sensed.png")
+    panel = figures[-1].axes[4]
+    assert panel.get_ylabel() == "CoM velocity [m/s]"
+    drawn = [line.get_ydata() for line in panel.lines]
+    assert any(np.allclose(y, trace.channels["com_vel_read_mps"][:, 0]) for y in drawn)
+    assert any(np.allclose(y, 0.2) for y in drawn)
+    trace.meta["sensing"] = {"name": "ideal"}
+    plot_run(trace, tmp_path / "ideal.png")
+    assert len(figures[-1].axes) == 4
+
+
 def test_the_gait_figure_is_drawn_once(tmp_path, monkeypatch):
     """Writing the gait figure renders it once (an operation count: a layout engine left on the
     figure makes ``savefig`` render it twice), and the PNG is complete."""

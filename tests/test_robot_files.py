@@ -35,9 +35,9 @@ def test_a_builtin_robot_is_its_file(op3_copy):
         builtin, user = load_robot(name), load_robot(str(copy))
         assert user.params() == builtin.params().with_values(name="renamed")
         assert (user.foot_friction, user.servo_dynamic_feedforward, user.physics_step_s,
-                user.inverse_dynamics_rate_hz) == (
+                user.inverse_dynamics_rate_hz, user.sensors) == (
             builtin.foot_friction, builtin.servo_dynamic_feedforward, builtin.physics_step_s,
-            builtin.inverse_dynamics_rate_hz)
+            builtin.inverse_dynamics_rate_hz, builtin.sensors)
 
 
 @pytest.mark.parametrize("value,message", [
@@ -72,6 +72,42 @@ def test_a_bad_inverse_dynamics_rate_is_refused_naming_the_file(op3_copy, value,
     assert str(path) in str(error.value)
     path.write_text(op3_copy.read_text() + "\n[simulation]\ninverse_dynamics_rate_hz = 100\n")
     assert load_robot(str(path)).inverse_dynamics_rate_hz == 100.0
+
+
+@pytest.mark.parametrize("line,message", [
+    ("compass_noise = 0.1", "unknown key sensors.compass_noise"),
+    ("gyro_noise_radps = -0.1", "sensors.gyro_noise_radps must be a finite number >= 0"),
+    ('accel_bias_mps2 = "low"', "sensors.accel_bias_mps2 must be a number"),
+])
+def test_bad_sensors_are_refused_naming_the_file(op3_copy, line, message):
+    from robust_ismpc.exceptions import ParameterError
+
+    path = op3_copy.parent / "bad_sensors.toml"
+    path.write_text(op3_copy.read_text().replace("[sensors]\n", f"[sensors]\n{line}\n"))
+    with pytest.raises(ParameterError, match=message) as error:
+        load_robot(str(path))
+    assert str(path) in str(error.value)
+
+
+def test_a_robot_s_own_sensors_replace_the_preset_s_and_the_summary_records_them(op3_copy, tmp_path, capsys):
+    """OP3's file names its servos' 12-bit encoders: under ``realistic`` a run uses them (and the
+    preset's IMU), under ``ideal`` the truth; ``summary.json`` says which values a run used."""
+    from robust_ismpc.robots.sensing import SENSING_PRESETS, robot_sensing
+
+    sensors = dict(load_robot("op3").sensors)
+    assert sensors["joint_pos_resolution_rad"] == pytest.approx(2 * 3.14159265 / 4096, rel=1e-4)
+    realistic = robot_sensing("realistic", load_robot("op3").sensors)
+    assert realistic.joint_pos_resolution_rad == sensors["joint_pos_resolution_rad"]
+    assert realistic.gyro_bias_radps == SENSING_PRESETS["realistic"].gyro_bias_radps
+    assert robot_sensing("ideal", load_robot("op3").sensors) == SENSING_PRESETS["ideal"]
+    for sensing in ("realistic", "ideal"):
+        out = tmp_path / sensing
+        code, _ = _main(["run", "--sim", "mujoco", "--robot", str(op3_copy), "--vx", "0", "--duration", "0.2",
+                         "--sensing", sensing, "--out", str(out)], capsys)
+        assert code == 0
+        recorded = json.loads((out / "summary.json").read_text())["sensing"]
+        expected = sensors["joint_pos_resolution_rad"] if sensing == "realistic" else 0.0
+        assert recorded["joint_pos_resolution_rad"] == expected
 
 
 def _main(argv, capsys):

@@ -130,9 +130,13 @@ def test_under_sensor_noise_the_robust_controller_walks_with_a_quiet_estimate(se
 def test_a_run_names_its_sensing_in_its_summary():
     from robust_ismpc.runs.run import run
 
-    result = run(RunSpec(robot="g1", sim="lip", duration_s=0.5, sensing="realistic", seed=3))
+    result = run(RunSpec(robot="g1", sim="lip", duration_s=2.0, sensing="realistic", seed=3))
     assert result.summary["sensing"] == SENSING_PRESETS["realistic"].as_dict()
     assert result.summary["seed"] == 3
+    # the velocity the controller read errs by the preset's 3 cm/s noise (and 10 ms of latency)
+    error = result.summary["com_vel_read_error_rms_mps"]
+    assert all(0.025 < e < 0.04 for e in error), error
+    assert "com_vel_read_error_rms_mps" not in run(RunSpec(robot="g1", sim="lip", duration_s=0.5)).summary
 
 
 def test_soak_and_sweep_pass_their_sensing_to_every_run():

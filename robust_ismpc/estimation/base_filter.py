@@ -148,17 +148,25 @@ class BaseStateFilter:
                 if self.floor_height_m is not None:
                     anchor[2] = self.floor_height_m
                 self.anchors_m[name] = anchor
-            velocity = -(rotation @ (np.cross(omega, r_base) + sole_velocities_in_base_mps[name]))
+            wx, wy, wz = omega.tolist()
+            rx, ry, rz = r_base.tolist()
+            lever = np.array([wy * rz - wz * ry, wz * rx - wx * rz, wx * ry - wy * rx])  # ω × r
+            velocity = -(rotation @ (lever + sole_velocities_in_base_mps[name]))
             position = self.anchors_m[name] - r_world
             self._update(position, velocity, p.leg_pos_noise_m**2, p.leg_vel_noise_mps**2)
 
     def _update(self, position: np.ndarray, velocity: np.ndarray, var_pos: float, var_vel: float) -> None:
-        """One Kalman update with a position and a velocity measurement of every axis."""
-        P = self.covariance
-        S = P + np.diag([var_pos, var_vel])  # H = I per axis
-        K = P @ np.linalg.inv(S)
-        innovation = np.stack([position - self.position_m, velocity - self.velocity_mps])  # (2, 3)
-        correction = K @ innovation
-        self.position_m += correction[0]
-        self.velocity_mps += correction[1]
-        self.covariance = (np.eye(2) - K) @ P
+        """One Kalman update with a position and a velocity measurement of every axis
+        (H = I per axis; the 2 × 2 algebra written out, as it runs at the physics rate)."""
+        (a, b), (_, d) = self.covariance.tolist()
+        s_pp, s_vv = a + var_pos, d + var_vel
+        det = s_pp * s_vv - b * b
+        # K = P S⁻¹ with S⁻¹ = [[s_vv, -b], [-b, s_pp]] / det
+        k_pp, k_pv = (a * s_vv - b * b) / det, (a * -b + b * s_pp) / det
+        k_vp, k_vv = (b * s_vv - d * b) / det, (-b * b + d * s_pp) / det
+        innovation_p = position - self.position_m
+        innovation_v = velocity - self.velocity_mps
+        self.position_m += k_pp * innovation_p + k_pv * innovation_v
+        self.velocity_mps += k_vp * innovation_p + k_vv * innovation_v
+        self.covariance = np.array([[(1 - k_pp) * a - k_pv * b, (1 - k_pp) * b - k_pv * d],
+                                    [-k_vp * a + (1 - k_vv) * b, -k_vp * b + (1 - k_vv) * d]])

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..exceptions import ModelError, ParameterError
 from ..validation import check_vector
+from .sensing import SENSOR_FIELDS
 from .spec import _FRAME_TYPES, GAIT_FIELDS
 
 BUILTIN_DIR = Path(__file__).resolve().parent
@@ -74,7 +75,7 @@ _REQUIRED_KEYS = (
     "leg_joints",
 )
 _OPTIONAL_KEYS = ("model_package", "standing_posture", "gait", "sole_outline_m", "simulation",
-                  "left_sole_quat", "right_sole_quat")
+                  "left_sole_quat", "right_sole_quat", "sensors")
 #: Keys of the ``[simulation]`` table and their types.
 _SIMULATION_KEYS = {"foot_friction": float, "servo_dynamic_feedforward": bool, "physics_step_s": float,
                     "inverse_dynamics_rate_hz": float}
@@ -130,6 +131,22 @@ def _simulation_table(toml_path: Path, table: Any) -> dict[str, Any]:
     return values
 
 
+def _sensors_table(toml_path: Path, table: Any) -> tuple[tuple[str, float], ...]:
+    """The ``[sensors]`` table of a robot file: its sensors' noise, resolution and biases, in
+    place of a sensing preset's (ParameterError naming file and key)."""
+    if not isinstance(table, dict):
+        raise ParameterError(f"{toml_path}: sensors must be a table of {', '.join(SENSOR_FIELDS)}")
+    values = []
+    for key, value in table.items():
+        if key not in SENSOR_FIELDS:
+            raise ParameterError(f"{toml_path}: unknown key sensors.{key}; allowed: {', '.join(SENSOR_FIELDS)}")
+        number = _toml_number(toml_path, f"sensors.{key}", value)
+        if not number >= 0 or number == float("inf"):
+            raise ParameterError(f"{toml_path}: sensors.{key} must be a finite number >= 0, got {value!r}")
+        values.append((key, number))
+    return tuple(values)
+
+
 def _sole_sites(toml_path: Path, table: dict[str, Any], frame_type: str, offsets) -> tuple:
     """The sole sites of a file with ``*_sole_quat`` (sole frames rotated from their foot bodies):
     one site per foot body at its sole offset, with that orientation; () without the keys."""
@@ -182,6 +199,8 @@ class RobotFile:
         ``sole_length_m`` and ``sole_width_m`` [m].
     simulation : dict
         The ``[simulation]`` table, checked.
+    sensors : tuple of (str, float)
+        The ``[sensors]`` table, checked.
     """
 
     path: Path
@@ -195,6 +214,7 @@ class RobotFile:
     sole_outline_m: tuple[tuple[float, float], ...]
     sole_size: dict
     simulation: dict
+    sensors: tuple[tuple[str, float], ...] = ()
 
     def model_path(self) -> Path:
         """The MJCF scene the file names [absolute path].
@@ -288,4 +308,5 @@ def read_robot_file(path: str | Path) -> RobotFile:
         path=toml_path, table=table, foot_frame_type=frame_type, feet=feet,
         offsets=offsets, sole_sites=sole_sites, posture=posture, gait_overrides=gait_overrides,
         sole_outline_m=sole_outline, sole_size=sole_size, simulation=simulation,
+        sensors=_sensors_table(toml_path, table.get("sensors", {})),
     )

@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -41,8 +42,9 @@ from ..estimation.estimator import EstimatorParams
 from ..exceptions import ParameterError
 from ..validation import check_nonnegative
 
-#: The fields that model the sensors themselves (encoders, IMU) rather than the estimate.
-_SENSOR_FIELDS = ("joint_pos_resolution_rad", "joint_vel_noise_radps", "gyro_noise_radps", "gyro_bias_radps",
+#: The fields that model the sensors themselves (encoders, IMU) rather than the estimate; a robot
+#: file's ``[sensors]`` table may set them (:func:`robot_sensing`).
+SENSOR_FIELDS = ("joint_pos_resolution_rad", "joint_vel_noise_radps", "gyro_noise_radps", "gyro_bias_radps",
                   "accel_noise_mps2", "accel_bias_mps2", "imu_tilt_error_rad", "imu_orientation_noise_rad")
 
 
@@ -113,7 +115,7 @@ class SensingParams:
         check_nonnegative("SensingParams", com_pos_noise_m=self.com_pos_noise_m, com_pos_bias_m=self.com_pos_bias_m,
                           com_vel_noise_mps=self.com_vel_noise_mps, contact_force_noise=self.contact_force_noise,
                           position_noise_m=self.position_noise_m, latency_s=self.latency_s,
-                          **{name: getattr(self, name) for name in _SENSOR_FIELDS})
+                          **{name: getattr(self, name) for name in SENSOR_FIELDS})
 
     @property
     def is_ideal(self) -> bool:
@@ -126,7 +128,7 @@ class SensingParams:
     def models_sensors(self) -> bool:
         """True when the encoders or the IMU are imperfect: a robot with joints then estimates its
         state from them."""
-        return any(getattr(self, name) != 0 for name in _SENSOR_FIELDS)
+        return any(getattr(self, name) != 0 for name in SENSOR_FIELDS)
 
     def for_estimated_state(self) -> SensingParams:
         """The signal model left when the state is estimated from the sensors: the stand-ins for
@@ -177,6 +179,26 @@ SENSING_PRESETS: dict[str, SensingParams] = {
                                gyro_noise_radps=0.005, gyro_bias_radps=0.002, accel_noise_mps2=0.03,
                                accel_bias_mps2=0.05, imu_tilt_error_rad=0.005, imu_orientation_noise_rad=0.001),
 }
+
+
+def robot_sensing(name: str, robot_sensors: tuple[tuple[str, float], ...] = ()) -> SensingParams:
+    """The preset called ``name`` with a robot's own sensors (its robot file's ``[sensors]``
+    table, :attr:`~robust_ismpc.robots.spec.RobotSpec.sensors`) in place of the preset's.
+    ``ideal`` stays the truth whatever the robot's sensors.
+
+    Raises
+    ------
+    ParameterError
+        No preset has that name, or a sensor value is invalid.
+    """
+    preset = sensing_preset(name)
+    if preset.is_ideal or not robot_sensors:
+        return preset
+    unknown = [key for key, _ in robot_sensors if key not in SENSOR_FIELDS]
+    if unknown:
+        raise ParameterError(f"unknown sensor {unknown[0]!r}; use one of: {', '.join(SENSOR_FIELDS)}")
+    values: dict[str, Any] = dict(robot_sensors)
+    return replace(preset, **values)
 
 
 def sensing_preset(name: str) -> SensingParams:
@@ -263,4 +285,4 @@ class Sensors:
         )
 
 
-__all__ = ["SENSING_PRESETS", "SensingParams", "Sensors", "sensing_preset"]
+__all__ = ["SENSING_PRESETS", "SENSOR_FIELDS", "SensingParams", "Sensors", "robot_sensing", "sensing_preset"]

@@ -97,6 +97,10 @@ class RobotSpec:
         Torque control: how often the inverse-dynamics QP is solved [Hz]; its command is held
         by the motor drivers in between (:mod:`robust_ismpc.sim.whole_body.motor_command`). The
         physics step must divide its period. None: at every physics step.
+    sensors : tuple of (str, float)
+        The robot's own sensors (name of a :class:`~robust_ismpc.robots.sensing.SensingParams`
+        sensor field, value), which replace a sensing preset's
+        (:func:`~robust_ismpc.robots.sensing.robot_sensing`); the ``ideal`` preset ignores them.
     """
 
     name: str
@@ -123,6 +127,7 @@ class RobotSpec:
     servo_dynamic_feedforward: bool = False
     physics_step_s: float | None = None
     inverse_dynamics_rate_hz: float | None = None
+    sensors: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         owner = f"RobotSpec[{self.name}]"

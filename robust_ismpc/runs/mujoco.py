@@ -36,7 +36,7 @@ from ..control.walk import make_controller, start_walk
 from ..core.params import GRAVITY_MPS2
 from ..estimation.estimator import EstimatorParams
 from ..exceptions import ControllerFailure, ParameterError, SolverError
-from ..robots.sensing import Sensors, sensing_preset
+from ..robots.sensing import Sensors, robot_sensing
 from ..sim.diagnostics import ModelDiagnostics
 from ..sim.forces import Force
 from ..sim.instability import simulation_failure
@@ -177,7 +177,7 @@ def run_mujoco_spec(
 
     com0, left0, right0 = initial_state(robot_spec)
     yaw0 = 0.5 * (left0.yaw_rad + right0.yaw_rad)
-    sensing = sensing_preset(spec.sensing)
+    sensing = robot_sensing(spec.sensing, robot_spec.sensors)
     controller = make_controller(params, spec.mpc, spec.modules, spec.delta_max_mps2,
                                  estimator=sensing.estimator_params(settings.estimator))
     start_walk(controller, spec.command, spec.duration_s, left0.pos_m[:2], right0.pos_m[:2], yaw0, com0[:2])
@@ -287,6 +287,7 @@ def run_mujoco_spec(
     duration = float(sim.data.time)
     fell = fell or (failure is not None and failure != INTERRUPTED)
     meta = run_meta(spec, params)
+    meta["sensing"] = sensing.as_dict()  # with the robot's own sensors
     meta["fell"] = fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
     meta["mass_kg"] = mass

@@ -82,4 +82,9 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
     for key in ("seed", "sensing", "mismatch", "command", "forces", "pushes", "delta_max_mps2", "scenario"):
         if key in meta:
             summary[key] = meta[key]
+    sensing = meta.get("sensing")
+    if n and isinstance(sensing, dict) and sensing.get("name", "ideal") != "ideal":
+        # what the controller read against the truth: its sensors, state estimate and latency
+        error = trace["com_vel_read_mps"] - trace["com_vel_mps"]
+        summary["com_vel_read_error_rms_mps"] = [round(float(v), 6) for v in np.sqrt(np.nanmean(error**2, axis=0))]
     return summary

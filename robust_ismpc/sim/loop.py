@@ -444,6 +444,10 @@ class MujocoSimulation:
         (:attr:`weighed_mass_kg`), not the model's: whatever the robot carries rides on the same
         contacts, and the LIP the MPC plans with accelerates the CoM by the contact force over the
         weight those contacts bear.
+
+        With modelled sensors (:attr:`estimator`) the CoM, its velocity and the angular momentum
+        are the estimate's, and the centre of pressure and the contact moment are placed where
+        the estimate puts the soles; the contacts returned are the simulator's (for the record).
         """
         moment_acc = None
         mass_kg = self.weighed_mass_kg

@@ -309,6 +309,7 @@ def load_robot_file(path: str | Path) -> RobotSpec:
             sole_outline_m=robot_file.sole_outline_m,
             sole_sites=robot_file.sole_sites,
             **robot_file.simulation,
+            sensors=robot_file.sensors,
             **measured,
         )
         spec.params()  # the gait values, checked now so that the message names the file
