@@ -104,10 +104,14 @@ def test_the_estimate_follows_a_torque_controlled_walk(g1_spec):
 
 def test_the_inverse_dynamics_reads_the_estimate(g1_spec):
     """Under torque control with modelled sensors the QP copies the estimated state, not the
-    simulator's."""
+    simulator's, and the motor drivers read the encoders' rounded joint positions."""
     sim = MujocoSimulation(g1_spec, settings=LoopSettings(torque_control=TorqueControlSettings()),
                            sensing=REALISTIC)
     assert sim.inverse_dynamics.state is sim.estimator
+    sim.estimator.update((200.0, 200.0))
+    q, _ = sim.inverse_dynamics.joint_state()  # what the motor drivers read: the encoders
+    steps = q / REALISTIC.joint_pos_resolution_rad
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
 
 
 def test_sensing_params_tell_a_sensor_model_from_a_signal_model():

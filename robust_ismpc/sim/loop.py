@@ -328,9 +328,11 @@ class MujocoSimulation:
                 self._steps_since_command = 0
             self._steps_since_command += 1
             act = self.actuators
-            self.data.ctrl[:] = self._motor_command.torques(self.data.qpos[act.sim_qpos_index],
-                                                            self.data.qvel[act.sim_dof_index],
-                                                            self.inverse_dynamics.torque_limits_nm)
+            if self.estimator is None:
+                q, dq = self.data.qpos[act.sim_qpos_index], self.data.qvel[act.sim_dof_index]
+            else:  # the drivers read the encoders
+                q, dq = self.inverse_dynamics.joint_state()
+            self.data.ctrl[:] = self._motor_command.torques(q, dq, self.inverse_dynamics.torque_limits_nm)
             return
         act = self.actuators
         targets = self._targets

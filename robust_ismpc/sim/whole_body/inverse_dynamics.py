@@ -265,6 +265,11 @@ class InverseDynamicsQp:
         mujoco.mj_jacDot(m, d, jac_dot[:3], jac_dot[3:], point, self._body[side])
         return jac, jac_dot
 
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """The actuated joints' positions [rad] and velocities [rad/s] as :attr:`state` gives
+        them (the encoders, under modelled sensors), each shape (nu,), in actuator order."""
+        return self.state.qpos[self._qpos_index], self.state.qvel[self._dof]
+
     @property
     def torque_limits_nm(self) -> np.ndarray:
         """Lower and upper torque limit per motor, shape (nu, 2) [N m], in actuator order."""
