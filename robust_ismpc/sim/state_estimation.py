@@ -35,7 +35,7 @@ import numpy as np
 
 from ..core.params import GRAVITY_MPS2
 from ..estimation.base_filter import BaseFilterParams, BaseStateFilter
-from ..exceptions import ParameterError
+from ..exceptions import ModelError, ParameterError
 from ..robots.sensing import SensingParams
 from ..robots.spec import RobotSpec
 from .model import compile_model
@@ -226,6 +226,11 @@ class SensedState:
         is placed and that it stands still).
     seed : int
         Seed of the sensors' noise and biases.
+
+    Raises
+    ------
+    ModelError
+        The robot's model does not start with the root's free joint, or has ball joints.
     """
 
     def __init__(self, spec: RobotSpec, params: SensingParams, scene_model: mujoco.MjModel,
@@ -233,6 +238,10 @@ class SensedState:
         if not isinstance(params, SensingParams):
             raise ParameterError(f"params must be SensingParams, got {type(params).__name__}")
         self.model = _own_model(spec)
+        m = self.model
+        if m.njnt == 0 or m.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE or m.nq - 7 != m.nv - 6:
+            raise ModelError(f"robot {spec.name!r}: estimating its state needs a free joint at the root first and "
+                             "hinge or slide joints after it")
         self.data = mujoco.MjData(self.model)
         #: The robot as its controller computes it: CoM, momentum and soles of the estimate.
         self.robot = MujocoRobot(spec, self.model, self.data)
