@@ -88,9 +88,10 @@ class SensingParams:
 
     The last eight describe the sensors themselves. When any of them is set, a MuJoCo run
     estimates the robot's state from those sensors (:mod:`robust_ismpc.sim.state_estimation`)
-    and the CoM, its velocity and the soles carry the estimate's own errors; the three stand-ins
-    for them (``com_pos_noise_m``, ``com_vel_noise_mps``, ``position_noise_m``) are then what the
-    reduced model, which has no joints, reads instead (:meth:`for_estimated_state`).
+    and the CoM, its velocity and the soles carry the estimate's own errors; the stand-ins for the
+    position errors (``com_pos_noise_m``, ``position_noise_m``) then serve the reduced model
+    alone, which has no joints, and ``com_vel_noise_mps`` is added to the estimate
+    (:meth:`for_estimated_state`).
     """
 
     name: str = "ideal"
