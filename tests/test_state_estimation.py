@@ -45,7 +45,7 @@ def test_the_sensors_quantise_the_encoders_and_tilt_the_imu_by_the_preset_s_erro
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, 0) if model.nkey else mujoco.mj_resetData(model, data)
     data.qpos[7:] += 0.01 * np.arange(model.nq - 7) / (model.nq - 7)
-    sensors = RobotSensors(REALISTIC, model, model, data, 0.002, np.random.default_rng(3))
+    sensors = RobotSensors(REALISTIC, TrueState(model, model, data), 0.002, np.random.default_rng(3))
     joints, _, rotation, _, specific_force = sensors.read()
     steps = joints / REALISTIC.joint_pos_resolution_rad
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)

@@ -31,12 +31,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.params import GRAVITY_MPS2
 from ..exceptions import ParameterError
 from ..validation import check_positive, check_vector
 
 __all__ = ["BaseFilterParams", "BaseStateFilter"]
 
-GRAVITY_VECTOR_MPS2 = np.array([0.0, 0.0, -9.81])
+#: Gravity in the world frame [m/s²].
+GRAVITY_VECTOR_MPS2 = np.array([0.0, 0.0, -GRAVITY_MPS2])
 
 
 @dataclass(frozen=True)

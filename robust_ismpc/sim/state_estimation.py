@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 
 from ..core.params import GRAVITY_MPS2
-from ..estimation.base_filter import BaseFilterParams, BaseStateFilter
+from ..estimation.base_filter import GRAVITY_VECTOR_MPS2, BaseFilterParams, BaseStateFilter
 from ..exceptions import ModelError, ParameterError
 from ..robots.sensing import SensingParams
 from ..robots.spec import RobotSpec
@@ -129,20 +129,17 @@ class RobotSensors:
     Parameters
     ----------
     params : SensingParams
-    model : mujoco.MjModel
-        The robot's own model (coordinates of the readings).
-    scene_model, scene_data : mujoco.MjModel, mujoco.MjData
-        The simulated scene.
+    truth : TrueState
+        The simulator's state of the robot, in its own model's coordinates (those of the readings).
     timestep_s : float
         The physics step [s].
     rng : numpy.random.Generator
         Source of the noise and of the biases' directions.
     """
 
-    def __init__(self, params: SensingParams, model: mujoco.MjModel, scene_model: mujoco.MjModel,
-                 scene_data: mujoco.MjData, timestep_s: float, rng: np.random.Generator) -> None:
+    def __init__(self, params: SensingParams, truth: TrueState, timestep_s: float, rng: np.random.Generator) -> None:
         self.params = params
-        self._truth = TrueState(model, scene_model, scene_data)
+        self._truth = truth
         self._timestep_s = float(timestep_s)
         self._rng = rng
 
@@ -193,7 +190,7 @@ class RobotSensors:
         velocity = qvel[:3].copy()
         acc = np.zeros(3) if self._previous_velocity is None else (velocity - self._previous_velocity) / self._timestep_s
         self._previous_velocity = velocity
-        specific_force = (true_rotation.reshape(3, 3).T @ (acc - np.array([0.0, 0.0, -GRAVITY_MPS2]))
+        specific_force = (true_rotation.reshape(3, 3).T @ (acc - GRAVITY_VECTOR_MPS2)
                           + self.accel_bias_mps2 + self._noise(p.accel_noise_mps2, 3))
         return joints.copy(), joint_vel, rotation, gyro, specific_force
 
@@ -246,7 +243,7 @@ class SensedState:
         #: The robot as its controller computes it: CoM, momentum and soles of the estimate.
         self.robot = MujocoRobot(spec, self.model, self.data)
         self._params, self._seed = params, seed
-        self._scene_model, self._scene_data = scene_model, scene_data
+        self._timestep_s = float(scene_model.opt.timestep)
         self._truth = TrueState(self.model, scene_model, scene_data)
         self._fixed_load_n = FIXED_SOLE_LOAD_FRACTION * self.robot.mass_kg * GRAVITY_MPS2
         self._sole_body = {side: self.robot.foot_body_id(side) for side in SIDES}
@@ -257,9 +254,8 @@ class SensedState:
     def reset(self) -> None:
         """Start again from the scene's current state, at rest, with the sensors' noise and biases
         drawn anew from the seed."""
-        timestep = float(self._scene_model.opt.timestep)
-        self.sensors = RobotSensors(self._params, self.model, self._scene_model, self._scene_data, timestep,
-                                    np.random.default_rng([self._seed, 0x5E45]))
+        timestep = self._timestep_s
+        self.sensors = RobotSensors(self._params, self._truth, timestep, np.random.default_rng([self._seed, 0x5E45]))
         self._qpos = self._truth.qpos.copy()
         self._qvel = np.zeros(self.model.nv)
         self._set_data()
