@@ -44,12 +44,11 @@ from ...core.reference import GaitReference
 from ...exceptions import ParameterError, SolverError
 from ...validation import check_nonnegative
 from ..model import compile_model
-from ..robot import MujocoRobot
+from ..robot import SIDES, MujocoRobot
 from ..state_estimation import RobotState, TrueState
 from .actuators import ActuatorMap, actuator_torque_limits_nm
 from .motor_command import MotorCommand, held_command
 
-SIDES = ("left", "right")
 _NO_BOUND = 1e9  # DAQP's stand-in for an infinite row bound
 
 
