@@ -293,6 +293,24 @@ def test_a_measured_dcm_jump_reaches_the_timing_module():
     assert adaptations == 1 and new < old - 0.05
 
 
+def test_a_retimed_step_goes_back_to_its_nominal_touchdown_once_the_dcm_is_clear():
+    """The timing follows the DCM, it does not ratchet: a forward DCM jump shortens the step; when
+    the next measurement takes the jump back (a glitch, or noise), the touchdown returns to the
+    nominal one, where the walk measured without the jump keeps it. The return is not counted as
+    an adaptation."""
+    controller = RobustIsmpcController(ROBOT, MpcParams(), modules=("timing",))
+    plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+    controller.reset(plan, np.zeros(2))
+    t = _walk_open_loop_to_single_support(controller, plan, 5)
+    nominal = plan.touchdown_s[5]
+    controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.08, 0.0]))
+    assert controller.timing_adaptations == 1 and plan.touchdown_s[5] < nominal - 0.05
+    t = round(t + controller.dt, 9)
+    controller.step(t, _measurement_of_model(controller, np.zeros(2), [-0.08, 0.0]))
+    assert plan.touchdown_s[5] == pytest.approx(nominal, abs=1e-9)
+    assert controller.timing_adaptations == 1 and controller.timing_returns == 1
+
+
 def test_a_landed_footstep_moves_to_the_measured_sole_with_the_model():
     """At touchdown the landed footstep is placed at the measured sole, and the model's CoM and
     ZMP move by the same offset, so the MPC's state keeps its place relative to the support; the

@@ -262,7 +262,8 @@ def paper_bag_8s():
     return run_scenario("paper-bag", seed=0, duration_s=8.0).comparison
 
 
-@pytest.mark.xfail(strict=True, reason=CLOSED_LOOP_GAP)
+@pytest.mark.xfail(strict=True, reason="the robust OP3 re-times one of its first steps (a double support at 2.12 s), "
+                                        "which the paper's NAO does not (docs/scenarios.md)")
 def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
     """paper-bag on OP3 (seed 0, 8 s), the paper's Fig. 2 and its mechanism: the nominal robot
     falls or drifts off its path under the swinging bag (at least 3 cm and twice the robust
@@ -277,6 +278,19 @@ def test_paper_bag_shows_the_papers_outcome(paper_bag_8s) -> None:
     assert robust["timing_adaptations"] == 0 and robust["qp_infeasible_count"] == 0
     assert robust["path_deviation"]["max_m"] < 0.03
     assert comparison["robust_keeps_path"] and comparison["expected_outcome"]
+
+
+def test_paper_bag_robust_walks_and_swings_the_bag_no_more_than_nominal(paper_bag_8s) -> None:
+    """paper-bag on OP3 (seed 0, 8 s): the robust robot walks as the nominal one does, with no
+    infeasible QP, leaning against the bag, and its steps do not pump the bag (its swing no larger
+    than under nominal, within 20 %). Re-timed steps that did not return to their nominal length
+    swung it 3-4 times as much, and the run turned infeasible (docs/scenarios.md)."""
+    nominal, robust = paper_bag_8s["nominal"], paper_bag_8s["robust"]
+    assert not nominal["fell"] and not robust["fell"]
+    assert robust["qp_infeasible_count"] == 0
+    assert robust["disturbance_planned_mean_mps2"][1] < -0.3
+    swing = {name: run["scene"]["payloads"][0]["swing_std_rad"] for name, run in (("nominal", nominal), ("robust", robust))}
+    assert swing["robust"] <= 1.2 * swing["nominal"]
 
 
 def test_paper_push_shows_the_papers_outcome_on_seed_0() -> None:

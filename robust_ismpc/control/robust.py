@@ -48,9 +48,11 @@ class _TimingRecord:
     current single support's touchdown (in single support), the coming single support's
     duration (in double support, :meth:`RobustIsmpcController._retime_next_step`) or the first
     touchdown (in the initial stance, :meth:`RobustIsmpcController._retime_start`); its time to
-    step is the time from now to the touchdown it set."""
+    step is the time from now to the touchdown it set. A re-timed step's return to its nominal
+    touchdown is counted apart (``returns``)."""
 
     adaptations: int = 0
+    returns: int = 0  # re-timed touchdowns moved back to their nominal one
     min_time_to_step_s: float = math.inf
     adapted_this_cycle: bool = False
     time_to_step_s: float = math.nan  # of this cycle's last adaptation (NaN: none)
@@ -66,6 +68,10 @@ class _TimingRecord:
         self.adapted_this_cycle = True
         self.time_to_step_s = float(time_to_touchdown_s)
         self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
+
+    def record_return(self) -> None:
+        """Count one re-timed touchdown moved back to its nominal one (not an adaptation)."""
+        self.returns += 1
 
 
 class RobustIsmpcController(IsmpcController):
@@ -172,8 +178,13 @@ class RobustIsmpcController(IsmpcController):
 
     @property
     def timing_adaptations(self) -> int:
-        """Number of cycles in which the step timing was changed."""
+        """Number of cycles in which the step timing was adapted."""
         return self.timing.adaptations
+
+    @property
+    def timing_returns(self) -> int:
+        """Number of cycles in which a re-timed touchdown moved back to its nominal one."""
+        return self.timing.returns
 
     def _restriction(self) -> np.ndarray | None:
         return self._restriction_m
@@ -296,7 +307,8 @@ class RobustIsmpcController(IsmpcController):
         """
         td = self.plan.touchdown_s
         n = int(np.count_nonzero(td[j:] < t + self.mpc_params.preview_horizon_s - 1e-9))
-        key = (j, n, self._anchored_step, self.timing.adaptations, self._landing_footstep_frozen(t, j))
+        key = (j, n, self._anchored_step, self.timing.adaptations, self.timing.returns,
+               self._landing_footstep_frozen(t, j))
         if self._bounds_cache is None or self._bounds_cache[0] != key:
             origin = self.plan.pos_m[j - 1]
             inputs_x, inputs_y, R, origin = self.feasibility_inputs(t, j, state, zmp_m=origin)
@@ -323,7 +335,14 @@ class RobustIsmpcController(IsmpcController):
         return np.zeros(2) if offset is None else self._row_weights @ offset
 
     def _adapt_timing(self, state: MpcState, qp_infeasible: bool = False) -> bool:
-        """Check feasibility and adapt the current touchdown if needed; True if it changed."""
+        """Check feasibility and adapt the current touchdown if needed; True if it changed.
+
+        QP-STA moves the touchdown as little as it can from the step's *nominal* one (spec §13.3),
+        and a re-timed step goes back to its nominal touchdown as soon as the shifted DCM is clear
+        of that timing's bounds by the trigger's margin (:meth:`_return_to_nominal`): the timing
+        follows the DCM, so an estimate that brushes the margin now and then (a noisy velocity, a
+        swinging payload) does not move it ever further from the nominal.
+        """
         plan, t = self.plan, state.t_s
         j = plan.step_at(t)
         touchdown = plan.touchdown_s[j]
@@ -331,12 +350,12 @@ class RobustIsmpcController(IsmpcController):
             self.timing.bounds_world_m = np.full(4, np.nan)
             return False
         remaining = touchdown - t
+        nominal = float(plan.ss_start_s[j] + self.nominal_T_ss_s[j])
+        if not qp_infeasible and self._return_to_nominal(state, j, touchdown, nominal):
+            return True
         bx, by, R, origin = self._current_bounds(t, j, state, remaining)
         dcm_local = R.T @ (state.dcm_m - origin)
-        if abs(plan.yaw_rad[j - 1]) < 1e-12:
-            self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
-        else:
-            self.timing.bounds_world_m = np.full(4, np.nan)
+        self._show_bounds(bx, by, origin, j)
         if not should_adapt(
             dcm_local, (float(bx[0]), float(bx[1])), (float(by[0]), float(by[1])), self.sta_params.margin_m,
             in_single_support=True, time_to_touchdown_s=remaining, freeze_s=self.sta_params.freeze_s,
@@ -347,10 +366,10 @@ class RobustIsmpcController(IsmpcController):
         # solve_sta's bounds leave out the swing leg's CoP offset; moving the DCM by the offset's
         # shift instead is the same check (the shift is the current timing's, kept for the new one)
         result = solve_sta(
-            t, touchdown, plan.ss_start_s[j], float(self.nominal_T_ss_s[j]),
+            t, max(nominal, t + self.dt), plan.ss_start_s[j], float(self.nominal_T_ss_s[j]),
             dcm_local + R.T @ self._cop_shift_m(t), inputs_x, inputs_y, self.sta_params,
         )
-        if not result.changed:
+        if abs(result.touchdown_time_s - touchdown) <= 0.5 * self.dt:
             return False
         plan.retime_touchdown(j, result.touchdown_time_s)
         self.timing.record(result.time_to_touchdown_s)
@@ -358,6 +377,32 @@ class RobustIsmpcController(IsmpcController):
             "sta", t, f"step timing adapted: touchdown in {result.time_to_touchdown_s:.2f} s (was {remaining:.2f} s)"
         )
         return True
+
+    def _return_to_nominal(self, state: MpcState, j: int, touchdown: float, nominal: float) -> bool:
+        """Move the re-timed touchdown of step ``j`` back to its nominal one (``nominal`` [s]) if
+        the shifted DCM is clear of the nominal timing's bounds by the margin, outside the freeze
+        window; True if it moved."""
+        t = state.t_s
+        freeze = self.sta_params.freeze_s
+        if abs(touchdown - nominal) <= 0.5 * self.dt or min(touchdown, nominal) - t < freeze:
+            return False
+        bx, by, R, origin = self._current_bounds(t, j, state, nominal - t)
+        if should_adapt(R.T @ (state.dcm_m - origin), (float(bx[0]), float(bx[1])), (float(by[0]), float(by[1])),
+                        self.sta_params.margin_m, in_single_support=True, time_to_touchdown_s=nominal - t,
+                        freeze_s=freeze):
+            return False
+        self._show_bounds(bx, by, origin, j)
+        self.plan.retime_touchdown(j, nominal)
+        self.timing.record_return()
+        return True
+
+    def _show_bounds(self, bx, by, origin: np.ndarray, j: int) -> None:
+        """Record the feasibility bounds of this cycle's timing in the world frame (NaN when the
+        support footstep is turned: they are support-frame bounds)."""
+        if abs(self.plan.yaw_rad[j - 1]) < 1e-12:
+            self.timing.bounds_world_m = np.array([bx[0] + origin[0], bx[1] + origin[0], by[0] + origin[1], by[1] + origin[1]])
+        else:
+            self.timing.bounds_world_m = np.full(4, np.nan)
 
     def _adapt(self, state: MpcState) -> None:
         self.timing.new_cycle()

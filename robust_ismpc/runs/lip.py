@@ -179,6 +179,7 @@ def run_lip_spec(spec: RunSpec, progress=None) -> RunResult:
     meta = run_meta(spec, robot)
     meta["fell"] = outcome.fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
+    meta["timing_returns"] = getattr(controller, "timing_returns", 0)
     trace = recorder.finish(controller.plan, meta)
     summary = summarize(trace, outcome.fell, outcome.failure, outcome.duration_s, wall)
     return RunResult(summary=summary, trace=trace)
