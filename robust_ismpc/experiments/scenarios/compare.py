@@ -140,7 +140,7 @@ def controller_comparison(result: RunResult, command: WalkCommand, event_s: floa
         "qp_infeasible_count": s["qp_infeasible_count"], "max_zmp_violation_m": s["max_zmp_violation_m"],
         "modules": s["modules"],
         "timing_adaptations": s["timing_adaptations"],
-        "timing_returns": s.get("timing_returns", 0), "min_time_to_step_s": s["min_time_to_step_s"],
+        "timing_returns": s["timing_returns"], "min_time_to_step_s": s["min_time_to_step_s"],
         "path_deviation": path_deviation(trace, command),
         "disturbance_planned_mean_mps2": _mean(w_planned),
         "disturbance_planned_final_mps2": s["disturbance_estimate_final"],
