@@ -111,20 +111,22 @@ SENSOR_ACC_NOISE = 0.02 * 9.81 * np.sqrt(2.0)  # m/s², force and moment at 2 % 
 
 
 def _noisy_estimates(estimator: DisturbanceEstimator, w: np.ndarray, seconds: float, seed: int,
-                     moment_acc: np.ndarray | None = None) -> np.ndarray:
+                     moment_acc: np.ndarray | None = None, vel_noise: float = SENSOR_VEL_NOISE,
+                     acc_noise: float = SENSOR_ACC_NOISE) -> np.ndarray:
     """Estimates of ``estimator`` for a CoM held against a constant ``w`` (its force part
-    ``w - moment_acc`` balanced by the contacts, plus a 1 Hz sway of 0.5 m/s²), with the sensor
-    noise above added to the velocity and to the contact and moment accelerations."""
+    ``w - moment_acc`` balanced by the contacts, plus a 1 Hz sway of 0.5 m/s²), with sensor
+    noise (the realistic preset's by default) added to the velocity and to the contact and
+    moment accelerations."""
     rng = np.random.default_rng(seed)
     moment_acc = np.zeros(2) if moment_acc is None else moment_acc
-    sigma_a = SENSOR_ACC_NOISE / np.sqrt(2.0)
+    sigma_a = acc_noise / np.sqrt(2.0)
     force = np.asarray(w, float) - moment_acc
     vel = np.zeros(2)
     contact_acc = np.zeros(2)
     out = []
     for k in range(int(round(seconds / DT))):
         t = k * DT
-        out.append(estimator.update(t, vel + SENSOR_VEL_NOISE * rng.standard_normal(2),
+        out.append(estimator.update(t, vel + vel_noise * rng.standard_normal(2),
                                     contact_acc + sigma_a * rng.standard_normal(2),
                                     moment_acc + sigma_a * rng.standard_normal(2)))
         contact_acc = -force + 0.5 * np.sin(2 * np.pi * t) * np.ones(2)
@@ -143,6 +145,21 @@ def test_the_disturbance_gain_is_the_steady_state_of_its_riccati_equation():
     assert 0 < k[0] < 1 and 0 < k[1] < 1 / DT
     again = disturbance_gain(SENSOR_VEL_NOISE, SENSOR_ACC_NOISE, DT, iterations=20_000, tolerance=0.0)
     np.testing.assert_allclose(k, again, rtol=1e-9)
+
+
+@pytest.mark.parametrize("vel_noise, acc_noise", [(SENSOR_VEL_NOISE, 0.0), (0.015, 0.0), (0.0, SENSOR_ACC_NOISE)])
+def test_a_disturbance_gain_with_one_signal_exact_still_estimates(vel_noise, acc_noise):
+    """Noise on one signal only (the other exact) gives a low-pass gain with K_w > 0 that is the
+    Riccati steady state, and the estimate reaches a constant w; with an exact contact force the
+    Riccati iteration's first gain is 0, which once stopped it there and left ŵ at 0 for good."""
+    k = disturbance_gain(vel_noise, acc_noise, DT)
+    assert 0 < k[1] <= 1 / DT and 0 < k[0] <= 1
+    np.testing.assert_allclose(k, disturbance_gain(vel_noise, acc_noise, DT, iterations=20_000, tolerance=0.0),
+                               rtol=1e-9)
+    w = np.array([0.6, -0.2])
+    estimates = _noisy_estimates(DisturbanceEstimator(0.03, DT, vel_noise, acc_noise), w, 10.0, seed=4,
+                                 vel_noise=vel_noise, acc_noise=acc_noise)[200:]
+    np.testing.assert_allclose(estimates.mean(axis=0), w, atol=0.03)
 
 
 def test_with_noisy_sensors_the_filter_is_unbiased_and_ten_times_quieter_than_differentiating():

@@ -119,15 +119,18 @@ def _steady_state_kalman_gain(A: np.ndarray, H: np.ndarray, Q: np.ndarray, R: np
     gains differ by less than ``tolerance`` or after ``iterations``."""
     n = A.shape[0]
     P = Q.copy()  # predicted covariance
-    K = np.zeros((n, H.shape[0]))
+    K: np.ndarray | None = None
     for _ in range(iterations):
         S = H @ P @ H.T + R
         K_next = np.linalg.solve(S.T, (P @ H.T).T).T  # P Hᵀ S⁻¹
         corrected = (np.eye(n) - K_next @ H) @ P
         P = A @ corrected @ A.T + Q
-        if np.max(np.abs(K_next - K)) < tolerance:
+        # (compared from the second gain on: where Q leaves a measured state without noise, the
+        # first gain is 0 whatever the steady state)
+        if K is not None and np.max(np.abs(K_next - K)) < tolerance:
             return K_next
         K = K_next
+    assert K is not None
     return K
 
 
