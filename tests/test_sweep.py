@@ -5,6 +5,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from robust_ismpc.cli import main
@@ -185,13 +186,61 @@ def test_bisection_refuses_an_unexpected_magnitude():
     assert b.next_magnitude() == 5.0
 
 
-def test_trial_seed_depends_on_the_key_only():
-    """Trial seeds are reproducible and differ between trials and base seeds."""
+def test_trial_seed_depends_on_the_cell_magnitude_and_repeat_only():
+    """Trial seeds are reproducible, differ between trials, repeats and base seeds, and are the
+    same for every controller (each meets the same noise at the same push)."""
     key = TaskKey("robust", 90.0, 0.25, "impulse")
     assert trial_seed(0, key, 5.0) == trial_seed(0, key, 5.0)
     assert trial_seed(0, key, 5.0) != trial_seed(1, key, 5.0)
     assert trial_seed(0, key, 5.0) != trial_seed(0, key, 2.5)
+    assert trial_seed(0, key, 5.0, 0) != trial_seed(0, key, 5.0, 1)
+    assert trial_seed(0, key, 5.0) == trial_seed(0, TaskKey("nominal", 90.0, 0.25, "impulse"), 5.0)
+    assert trial_seed(0, key, 5.0) != trial_seed(0, TaskKey("robust", 90.0, 0.5, "impulse"), 5.0)
     assert 0 <= trial_seed(7, key, 1.0) < 2**31
+
+
+def test_with_repeats_a_magnitude_is_held_by_a_majority_and_decided_early():
+    """Three trials per magnitude: two alike decide it (the third is not run), a split is decided
+    by the third; the bisection moves on the majority, not on single outcomes."""
+    outcomes = {16.0: [False, False], 8.0: [True, False, True], 12.0: [False, True, False], 10.0: [True, True]}
+    b = Bisection(16.0, 3, repeats=3)
+    assert b.remaining_max == 12
+    while (m := b.next_magnitude()) is not None:
+        b.record(m, outcomes[m].pop(0))
+    assert all(not left for left in outcomes.values())
+    assert [m for m, _ in b.trials] == [16.0, 16.0, 8.0, 8.0, 8.0, 12.0, 12.0, 12.0, 10.0, 10.0]
+    assert [(m, held) for m, held, _, _ in b.steps] == [(16.0, False), (8.0, True), (12.0, False), (10.0, True)]
+    assert [(s, n) for _, _, s, n in b.steps] == [(0, 2), (2, 3), (1, 3), (2, 2)]
+    assert b.frontier == 10.0 and b.hi == 12.0 and b.remaining_max == 0
+
+
+def test_with_repeats_the_frontier_of_a_noisy_threshold_is_the_majority_one():
+    """Survival with probability 0.8 below 6 and 0.2 above: one trial per magnitude wanders, the
+    majority of five misses the threshold by less than 0.6 of its mean error."""
+    rng = np.random.default_rng(0)
+
+    def survives(m: float) -> bool:
+        return bool(rng.random() < (0.8 if m <= 6.0 else 0.2))
+
+    def error(repeats: int) -> float:
+        return float(np.mean([abs(bisect(survives, 16.0, 5, repeats).frontier - 6.0) for _ in range(200)]))
+
+    assert error(5) < 0.6 * error(1)
+
+
+@pytest.mark.parametrize("repeats", [0, 2, -1, 1.0, True])
+def test_repeats_must_be_an_odd_count(repeats):
+    with pytest.raises(ParameterError, match="odd integer"):
+        Bisection(10.0, 3, repeats=repeats)
+
+
+def test_a_sweep_repeats_magnitudes_under_noisy_sensing_only():
+    assert tiny_config().repeats == 1
+    assert SweepConfig(sensing="realistic").repeats == 3
+    assert SweepConfig(sensing="realistic", repeats=1).repeats == 1
+    assert SweepConfig(sensing="realistic").max_trials == 3 * SweepConfig().max_trials
+    with pytest.raises(ParameterError, match="must be 1 under ideal sensing"):
+        SweepConfig(repeats=3)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -209,7 +258,7 @@ def test_tiny_sweep_writes_sane_outputs(tmp_path):
         assert 0 <= float(r["magnitude"]) <= 16.0 and r["survived"] in ("0", "1")
         assert (r["failure"] == "") == (r["survived"] == "1")
         assert float(r["fy_n"]) == pytest.approx(float(r["magnitude"]) / 0.1) and float(r["fx_n"]) == 0.0
-        assert int(r["seed"]) == trial_seed(3, TaskKey("nominal", 90.0, 0.5, "impulse"), float(r["magnitude"]))
+        assert int(r["seed"]) == trial_seed(3, TaskKey("nominal", 90.0, 0.5, "impulse"), float(r["magnitude"]), 0)
         assert float(r["sim_time_s"]) <= float(r["duration_s"]) + 1e-9
     start, T_ss = config.pushed_step_window()
     assert float(rows[0]["t_push_s"]) == pytest.approx(start + 0.5 * T_ss)
@@ -227,6 +276,33 @@ def test_tiny_sweep_writes_sane_outputs(tmp_path):
     for text in ("ismpc sweep --test", "Machine:", "Versions:", "sources sha256", "runs/s", "base seed 3", "| 90 |"):
         assert text in report
     assert json.loads((tmp_path / "sweep.json").read_text())["config"] == json.loads(json.dumps(config.to_dict()))
+
+
+def test_a_noisy_sweep_runs_each_magnitude_until_a_majority_and_resumes(tmp_path):
+    """Under realistic sensing every magnitude gets 2 or 3 trials, each with its repeat's seed,
+    until two agree; frontier.json records the tallies, and a rerun resumes with nothing to do."""
+    config = tiny_config(sensing="realistic", iterations=2)
+    run_sweep(config, tmp_path, workers=1)
+    rows = csv_rows(tmp_path / "runs.csv")
+    key = TaskKey("nominal", 90.0, 0.5, "impulse")
+    groups: list[list[dict]] = []
+    for r in rows:
+        if groups and groups[-1][0]["magnitude"] == r["magnitude"] and len(groups[-1]) < 3 and not (
+                len(groups[-1]) == 2 and groups[-1][0]["survived"] == groups[-1][1]["survived"]):
+            groups[-1].append(r)
+        else:
+            groups.append([r])
+    assert len(groups) == 3
+    steps = json.loads((tmp_path / "frontier.json").read_text())["entries"][0]["magnitudes"]
+    for group, (magnitude, held, survived, run) in zip(groups, steps):
+        assert len(group) == run in (2, 3) and float(group[0]["magnitude"]) == magnitude
+        outcomes = [r["survived"] == "1" for r in group]
+        assert sum(outcomes) == survived and held == (survived >= 2)
+        for repeat, r in enumerate(group):
+            assert int(r["seed"]) == trial_seed(3, key, magnitude, repeat)
+    again = run_sweep(config, tmp_path, workers=1)
+    assert again.trials_new == 0 and again.trials_resumed == len(rows)
+
 
 
 def test_force_bisection_and_ratios(tmp_path):

@@ -293,6 +293,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "full robot can fall seconds after a push)")
     p_sweep.add_argument("--iterations", type=int, default=8,
                          help="bisection steps after the trial at the maximum; resolution = max / 2^N (8)")
+    p_sweep.add_argument("--repeats", type=int, default=None,
+                         help="most trials per magnitude, each with its own seed, odd; a magnitude is held when "
+                         "most survive (1 under ideal sensing, 3 under a noisy --sensing)")
     p_sweep.add_argument("--pushed-step", type=int, default=4,
                          help="which regular step is pushed, 1 = the first (4)")
     p_sweep.add_argument("--seed", type=_seed, default=0, help="base seed of the per-trial seeds (0)")
@@ -348,6 +351,7 @@ FLAG_NAMES = {
     "SweepConfig.force_max_n": "--force-max",
     "SweepConfig.push_duration_s": "--push-duration",
     "SweepConfig.iterations": "--iterations",
+    "SweepConfig.repeats": "--repeats",
     "SweepConfig.pushed_step": "--pushed-step",
     "SweepConfig.post_push_s": "--duration",
     "SweepConfig.vx_mps": "--vx",

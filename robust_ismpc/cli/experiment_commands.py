@@ -200,7 +200,7 @@ def cmd_sweep(args) -> int:
         vx_mps=applied["--vx"],
         post_push_s=args.duration if args.duration is not None else DEFAULT_POST_PUSH_S.get(args.sim, 3.0),
         iterations=args.iterations, pushed_step=args.pushed_step,
-        seed=args.seed, whole_body=args.whole_body, sensing=args.sensing,
+        seed=args.seed, whole_body=args.whole_body, sensing=args.sensing, repeats=args.repeats,
     )
     for line in warnings:
         _warn(line)

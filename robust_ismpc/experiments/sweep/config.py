@@ -8,13 +8,16 @@ from dataclasses import dataclass, fields
 from ...control.modules import parse_controllers
 from ...exceptions import ParameterError
 from ...validation import check_positive
+from .bisection import check_repeats
 from .trials import TaskKey
 
 SIMS = ("lip", "mujoco")
 KINDS = ("impulse", "force")
 UNITS = {"impulse": "N s", "force": "N"}
 BACKENDS = ("local", "ray")
-SWEEP_FORMAT = 1
+SWEEP_FORMAT = 2  # 2: repeats per magnitude; trial seeds shared by the controllers
+#: Trials per magnitude under a noisy sensing preset (:attr:`SweepConfig.repeats`).
+NOISY_REPEATS = 3
 
 RUNS_CSV = "runs.csv"
 SWEEP_JSON = "sweep.json"
@@ -150,6 +153,11 @@ class SweepConfig:
     sensing : str
         What the controllers read (:attr:`~robust_ismpc.runs.spec.RunSpec.sensing`; ``ideal`` by
         default); every trial draws its noise from its own seed.
+    repeats : int or None
+        Most trials per magnitude, odd; a magnitude is held when most of them survive
+        (:class:`~robust_ismpc.experiments.sweep.bisection.Bisection`). None: 1 under ideal
+        sensing, whose runs are deterministic, and :data:`NOISY_REPEATS` under a noisy preset,
+        where one trial's outcome depends on its noise draw.
     """
 
     robot: str = "g1"
@@ -167,6 +175,7 @@ class SweepConfig:
     seed: int = 0
     whole_body: str | None = None
     sensing: str = "ideal"
+    repeats: int | None = None
 
     def __post_init__(self) -> None:
         owner = "SweepConfig"
@@ -203,7 +212,13 @@ class SweepConfig:
         object.__setattr__(self, "whole_body", resolve_whole_body(owner, self.whole_body, self.sim))
         from ...robots.sensing import sensing_preset
 
-        sensing_preset(self.sensing)  # validates the name
+        ideal = sensing_preset(self.sensing).is_ideal  # validates the name
+        if self.repeats is None:
+            object.__setattr__(self, "repeats", 1 if ideal else NOISY_REPEATS)
+        repeats = check_repeats(owner, self.repeats)
+        if ideal and repeats > 1:
+            raise ParameterError(f"{owner}.repeats must be 1 under ideal sensing (its runs are deterministic: every "
+                                 f"repeat would end as the first), got {repeats}")
 
     # -----------------------------------------------------------------------------------------
     @property
@@ -233,7 +248,7 @@ class SweepConfig:
     @property
     def max_trials(self) -> int:
         """Upper bound on the number of trials (tasks that saturate need fewer)."""
-        return len(self.tasks()) * (1 + self.iterations)
+        return len(self.tasks()) * (1 + self.iterations) * int(self.repeats or 1)
 
     def to_dict(self) -> dict:
         """JSON-ready dict (tuples as lists)."""

@@ -77,6 +77,7 @@ def frontier_summary(config: SweepConfig, bisections: dict[TaskKey, Bisection]) 
             "controller": key.controller, "direction_deg": key.direction_deg, "phase": key.phase,
             "kind": key.kind, "max_survived": b.frontier, "first_failed": None if b.saturated else b.hi,
             "saturated": b.saturated, "complete": b.done, "trials": len(b.trials),
+            "magnitudes": [[m, held, survived, run] for m, held, survived, run in b.steps],
         })
         cell = per.setdefault(key.kind, {}).setdefault(key.controller, {}).setdefault(
             _dir_label(key.direction_deg), {"phases": [], "per_phase": []}
@@ -212,14 +213,17 @@ def format_report(
              f"{start:.3g} s for {T_ss:.3g} s): {', '.join(f'{p:g}' for p in config.phases)}\n")
     md.write(f"- impulse: bisection in [0, {config.impulse_max_ns:g}] N s, applied as a constant force over "
              f"{config.push_duration_s:g} s; resolution {config.resolution('impulse'):.4g} N s "
-             f"(1 trial at the maximum + {config.iterations} bisection trials)\n")
+             f"(the maximum + {config.iterations} bisection magnitudes)\n")
     if config.force_max_n is not None:
         md.write(f"- constant force: bisection in [0, {config.force_max_n:g}] N from the push instant to the end; "
                  f"resolution {config.resolution('force'):.4g} N\n")
     md.write(f"- walk: vx = {config.vx_mps:g} m/s; each trial runs until {config.post_push_s:g} s after the push starts\n")
     md.write("- failure: a fall, diverged CoM or persistent infeasible QP (`summary[\"fell\"]`)\n")
-    md.write(f"- seeds: base seed {config.seed}; trial seed = first 31 bits of sha256(\"seed|controller|direction|"
-             f"phase|kind|magnitude\") (column `seed` of runs.csv)\n\n")
+    md.write(f"- trials per magnitude: up to {config.repeats}, each with its own seed; a magnitude is held when "
+             f"most of its trials survive (`magnitudes` in frontier.json: magnitude, held, survived, run)\n")
+    md.write(f"- seeds: base seed {config.seed}; trial seed = first 31 bits of sha256(\"seed|direction|phase|kind|"
+             f"magnitude|repeat\") (column `seed` of runs.csv): the controllers meet the same noise at the same "
+             f"push\n\n")
     md.write("## Execution\n\n")
     md.write(f"- backend: {backend}, {workers} worker(s)\n")
     md.write(f"- trials in runs.csv: {result.trials_total} ({survived} survived, {errors} errors); "

@@ -56,7 +56,7 @@ def _make_trial(config: SweepConfig, key: TaskKey, b: Bisection, push_window: tu
         key=key, iteration=len(b.trials), magnitude=float(magnitude), robot=config.robot, sim=config.sim,
         modules=controller_modules(key.controller), vx_mps=float(config.vx_mps), t_push_s=t_push,
         push_duration_s=float(config.push_duration_s), duration_s=t_push + config.post_push_s,
-        seed=trial_seed(config.seed, key, magnitude), whole_body=config.whole_body, sensing=config.sensing,
+        seed=trial_seed(config.seed, key, magnitude, b.next_repeat), whole_body=config.whole_body, sensing=config.sensing,
     )
 
 

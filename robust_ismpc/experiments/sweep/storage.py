@@ -215,6 +215,8 @@ def prepare_out(config: SweepConfig, out: Path, overwrite: bool) -> dict | None:
                 stored_file, stored = {}, {}
             if isinstance(stored, dict) and "sensing" not in stored:  # stored before sensing was recorded
                 stored = {**stored, "sensing": "ideal"}
+            if isinstance(stored, dict) and "repeats" not in stored:  # stored before repeats: one trial each
+                stored = {**stored, "repeats": 1}
             if stored != wanted:
                 diff = _config_diff(stored, wanted) if isinstance(stored, dict) else ["all"]
                 raise ParameterError(
@@ -241,7 +243,7 @@ def _replay(config: SweepConfig, rows: list[dict]) -> tuple[dict[TaskKey, Bisect
     bisections: dict[TaskKey, Bisection] = {}
     replayed = 0
     for key in config.tasks():
-        b = Bisection(config.max_magnitude(key.kind), config.iterations)
+        b = Bisection(config.max_magnitude(key.kind), config.iterations, config.repeats)
         while (m := b.next_magnitude()) is not None:
             done_row = finished.get((key, len(b.trials)))
             if done_row is None:

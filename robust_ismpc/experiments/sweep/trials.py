@@ -23,13 +23,16 @@ class TaskKey:
     kind: str
 
 
-def trial_seed(base_seed: int, key: TaskKey, magnitude: float) -> int:
-    """Seed of a trial, derived deterministically from the base seed and the trial key.
+def trial_seed(base_seed: int, key: TaskKey, magnitude: float, repeat: int = 0) -> int:
+    """Seed of a trial, derived deterministically from the base seed and the trial's cell.
 
-    The seed depends on the trial's (controller, direction, phase, kind, magnitude), not on when
-    or where it ran, so a resumed or parallel sweep gives every trial the same seed.
+    The seed depends on the trial's (direction, phase, kind, magnitude) and its index ``repeat``
+    among the trials at that magnitude, not on when or where it ran, so a resumed or parallel
+    sweep gives every trial the same seed. It does not depend on the controller: every controller
+    meets the same sensor noise at the same push, so their frontiers differ by the controller
+    alone (common random numbers).
     """
-    text = f"{base_seed}|{key.controller}|{key.direction_deg!r}|{key.phase!r}|{key.kind}|{float(magnitude)!r}"
+    text = f"{base_seed}|{key.direction_deg!r}|{key.phase!r}|{key.kind}|{float(magnitude)!r}|{int(repeat)}"
     digest = hashlib.sha256(text.encode()).digest()
     return int.from_bytes(digest[:4], "big") & 0x7FFFFFFF
 
