@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -136,7 +137,12 @@ def test_a_run_names_its_sensing_in_its_summary():
     # the velocity the controller read errs by the preset's 3 cm/s noise (and 10 ms of latency)
     error = result.summary["com_vel_read_error_rms_mps"]
     assert all(0.025 < e < 0.04 for e in error), error
-    assert "com_vel_read_error_rms_mps" not in run(RunSpec(robot="g1", sim="lip", duration_s=0.5)).summary
+    # the CoM it read is off by the preset's 1 cm bias (mean) and 2 mm of noise (spread)
+    bias = result.summary["com_read_error_mean_m"]
+    assert 0.008 < math.hypot(*bias) < 0.012, bias
+    assert all(0.0015 < e < 0.003 for e in result.summary["com_read_error_std_m"])
+    ideal = run(RunSpec(robot="g1", sim="lip", duration_s=0.5)).summary
+    assert "com_vel_read_error_rms_mps" not in ideal and "com_read_error_mean_m" not in ideal
 
 
 def test_soak_and_sweep_pass_their_sensing_to_every_run():

@@ -136,7 +136,8 @@ def run_lip(
             break
         recorder.record(
             t_s=t, com_m=true_state[0], com_vel_mps=true_state[1], zmp_m=true_state[2],
-            zmp_violation_m=violation, disturbance_true_mps2=w, com_vel_read_mps=meas.com_vel_mps[:2],
+            zmp_violation_m=violation, disturbance_true_mps2=w, com_read_m=meas.com_pos_m[:2],
+            com_vel_read_mps=meas.com_vel_mps[:2],
             **controller_channels(controller, ref, t),
         )
         zmp_vel = (ref.zmp_m - true_state[2]) / dt

@@ -256,7 +256,7 @@ def run_mujoco_spec(
             recorder.record(
                 t_s=t_s, com_m=measurement.com_pos_m[:2], com_vel_mps=measurement.com_vel_mps[:2], zmp_m=zmp,
                 zmp_violation_m=violation, disturbance_true_mps2=force[:2] / mass,
-                com_vel_read_mps=reading.com_vel_mps[:2],
+                com_read_m=reading.com_pos_m[:2], com_vel_read_mps=reading.com_vel_mps[:2],
                 sole_meas_m=np.concatenate([left_sole.pos_m[:2], right_sole.pos_m[:2]]),
                 sole_meas_yaw_rad=(left_sole.yaw_rad, right_sole.yaw_rad),
                 **controller_channels(controller, reference, t_s),

@@ -88,4 +88,7 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
         # what the controller read against the truth: its sensors, state estimate and latency
         error = trace["com_vel_read_mps"] - trace["com_vel_mps"]
         summary["com_vel_read_error_rms_mps"] = [round(float(v), 6) for v in np.sqrt(np.nanmean(error**2, axis=0))]
+        error = trace["com_read_m"] - trace["com_m"]
+        summary["com_read_error_mean_m"] = [round(float(v), 6) for v in np.nanmean(error, axis=0)]
+        summary["com_read_error_std_m"] = [round(float(v), 6) for v in np.nanstd(error, axis=0)]
     return summary

@@ -32,6 +32,7 @@ CHANNELS: dict[str, tuple[int, ...]] = {
     "step_index": (),
     "time_to_step_s": (),
     "disturbance_true_mps2": (2,),
+    "com_read_m": (2,),  # the CoM position the controller read (the sensors' output)
     "com_vel_read_mps": (2,),  # the CoM velocity the controller read (the sensors' output)
     "disturbance_est_mps2": (2,),  # the disturbance the MPC planned with (w̃; 0 for nominal)
     "disturbance_measured_mps2": (2,),  # the robust controller's estimate ŵ before its filters; NaN without one
