@@ -391,3 +391,26 @@ def test_robust_holds_the_standing_pushes_nominal_holds(push_s):
     assert not fell(MODULES, 0.0, 120.0)
     assert fell((), 70.0, 0.0)
     assert not fell(MODULES, 70.0, 0.0)
+
+
+def test_a_measurement_the_mpc_cannot_plan_from_is_adopted_as_far_as_it_can_and_counted():
+    """A lateral DCM error far beyond what a step can catch, read by a controller with a noisy
+    estimator: the QP from the estimated state is infeasible, the controller plans from the
+    model's prediction instead (the state moved back) and counts that cycle; the same walk
+    measured without the error counts nothing."""
+    from robust_ismpc.estimation.estimator import EstimatorParams
+
+    counts = {}
+    for error in (0.0, 0.5):
+        controller = IsmpcController(ROBOT, MpcParams(), estimator=EstimatorParams(
+            com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5))
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        t = _walk_open_loop_to_single_support(controller, plan, 5)
+        predicted_dcm = controller.state[0] + controller.state[1] / controller.eta
+        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.0, error]))
+        counts[error] = controller.prediction_replans
+        assert controller.infeasible_count == 0
+        if error:
+            np.testing.assert_allclose(controller.info.dcm_m, predicted_dcm, atol=0.01)
+    assert counts == {0.0: 0, 0.5: 1}

@@ -207,6 +207,10 @@ class IsmpcController:
         self._cop_offset_cache: tuple | None = None
         self.fallback_cycles = 0
         self.infeasible_count = 0
+        #: Cycles planned from a state moved back towards the model's prediction, with the
+        #: previous cycle's w̃ (:meth:`_solve_plannable`): the measurement and the new estimate
+        #: were not plannable.
+        self.prediction_replans = 0
         self._predicted_state: np.ndarray | None = None
         self.info = CycleInfo()
 
@@ -248,8 +252,11 @@ class IsmpcController:
 
     def _solve_plannable(self, state: MpcState) -> MpcPlan:
         """Solve from the estimated state; if that QP is infeasible, from the state moved half-way,
-        then all the way, back to the model's prediction (the measurement is adopted as far as the
-        MPC can plan from it; the whole body absorbs the rest)."""
+        then all the way, back to the model's prediction, with w̃ moved back by the same fraction
+        to the previous cycle's (the measurement is adopted as far as the MPC can plan from it; the
+        whole body absorbs the rest). Counted in :attr:`prediction_replans`: while a force is
+        beyond what the MPC can plan with, w̃ stays at its last plannable value (docs/sweeps.md,
+        "The weakest rightward force cell")."""
         try:
             return self._solve_qp(state)
         except InfeasibleMpc:
@@ -270,6 +277,7 @@ class IsmpcController:
                 except InfeasibleMpc:
                     continue
                 self.info.dcm_m = retry.dcm_m
+                self.prediction_replans += 1
                 return result
             self.state[:2] = estimated
             self.disturbance_mps2 = disturbance
@@ -379,8 +387,8 @@ class IsmpcController:
         state = self._mpc_state(t_s, measurement)
         self._adapt(state)
         self.info.dcm_m = state.dcm_m
-        self.info.disturbance_mps2 = self.disturbance_mps2.copy()
         zmp_vel, _ = self._solve(state)
+        self.info.disturbance_mps2 = self.disturbance_mps2.copy()  # what the plan used (a retry may move it)
         self.last_zmp_vel_mps = zmp_vel
         self.info.fallback_cycles = self.fallback_cycles
         self.state = self.lip.A @ self.state + np.outer(self.lip.B, zmp_vel) + np.outer(self.lip.E, self.disturbance_mps2)

@@ -181,6 +181,7 @@ def run_lip_spec(spec: RunSpec, progress=None) -> RunResult:
     meta["fell"] = outcome.fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
     meta["timing_returns"] = getattr(controller, "timing_returns", 0)
+    meta["prediction_replans"] = controller.prediction_replans
     trace = recorder.finish(controller.plan, meta)
     summary = summarize(trace, outcome.fell, outcome.failure, outcome.duration_s, wall)
     return RunResult(summary=summary, trace=trace)

@@ -291,6 +291,7 @@ def run_mujoco_spec(
     meta["fell"] = fell
     meta["timing_adaptations"] = getattr(controller, "timing_adaptations", 0)
     meta["timing_returns"] = getattr(controller, "timing_returns", 0)
+    meta["prediction_replans"] = controller.prediction_replans
     meta["mass_kg"] = mass
     meta["physics_step_s"] = float(sim.model.opt.timestep)
     if sim.inverse_dynamics is not None:  # the rate the torque control's QP ran at

@@ -74,6 +74,7 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
         "cycle_ms": timing_stats(trace["cycle_ms"]),
         "timing_adaptations": int(meta.get("timing_adaptations", int(np.nansum(adapted)) if n else 0)),
         "timing_returns": int(meta.get("timing_returns", 0)),
+        "prediction_replans": int(meta.get("prediction_replans", 0)),
         "min_time_to_step_s": None if min_tts is None else round(min_tts, 4),
         "disturbance_estimate_final": [round(float(v), 6) for v in w_est[-1]] if n else [0.0, 0.0],
     }
