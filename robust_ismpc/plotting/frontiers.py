@@ -11,7 +11,13 @@ from .figure import pyplot, save_figure
 
 
 def _label(frontier: dict, kind: str) -> str:
-    return f"largest survived {kind} [{frontier['units'][kind]}]"
+    config = frontier.get("config", {})
+    sensing = config.get("sensing", "ideal")
+    if sensing == "ideal":
+        return f"largest survived {kind} [{frontier['units'][kind]}]"
+    repeats = config.get("repeats", 1)
+    held = f"survived by most of {repeats} trials" if repeats > 1 else "survived (one trial)"
+    return f"largest {kind} {held} [{frontier['units'][kind]}], {sensing} sensing"
 
 
 def plot_frontier_polar(frontier: dict, kind: str, path: Path) -> Path:
