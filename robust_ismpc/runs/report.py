@@ -26,6 +26,38 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
+def landing_errors_m(trace: Trace) -> np.ndarray:
+    """Where each swing sole landed minus where the reference put it, in the landed sole's frame.
+
+    At every touchdown (the first double-support row after a single support) the measured sole
+    is compared with the swing foot's reference at the tick before (the reference for the
+    touchdown's time). A millimetre lost at every landing is walked on: the planner re-anchors
+    the later footsteps to the real foot (docs/scenarios.md, paper-bag). The trace's soles are
+    the simulator's, so under non-ideal sensing, where the reference lives in the state
+    estimate's world, the errors include that world's drift.
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+        (forward, left) [m] per touchdown; k = 0 without measured soles (the reduced model).
+    """
+    support = trace["support"]
+    if len(support) < 2:
+        return np.zeros((0, 2))
+    soles = trace["sole_meas_m"].reshape(-1, 2, 2)  # rows, (left, right), (x, y)
+    yaws = trace["sole_meas_yaw_rad"]
+    reference = np.stack([trace["left_foot_m"][:, :2], trace["right_foot_m"][:, :2]], axis=1)
+    errors = []
+    for k in np.flatnonzero((support[1:] == 0) & (support[:-1] != 0)) + 1:
+        swing = 1 if support[k - 1] > 0 else 0  # support 1: the left foot stands, the right one swings
+        error = soles[k, swing] - reference[k - 1, swing]
+        if not np.all(np.isfinite(error)):
+            continue
+        c, s_ = math.cos(yaws[k, swing]), math.sin(yaws[k, swing])
+        errors.append((c * error[0] + s_ * error[1], -s_ * error[0] + c * error[1]))
+    return np.array(errors).reshape(-1, 2)
+
+
 def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, wall_time_s: float | None = None) -> dict:
     """The run summary (the fields named by the issues, plus run metadata).
 
@@ -78,14 +110,19 @@ def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, 
         "min_time_to_step_s": None if min_tts is None else round(min_tts, 4),
         "disturbance_estimate_final": [round(float(v), 6) for v in w_est[-1]] if n else [0.0, 0.0],
     }
+    sensing = meta.get("sensing")
+    ideal = not isinstance(sensing, dict) or sensing.get("name", "ideal") == "ideal"
+    landing = landing_errors_m(trace) if ideal else np.zeros((0, 2))
+    if len(landing):
+        summary["landing_error_mean_m"] = [round(float(v), 6) for v in landing.mean(axis=0)]
+        summary["landing_error_max_m"] = [round(float(v), 6) for v in np.abs(landing).max(axis=0)]
     if wall_time_s is not None and wall_time_s > 0:
         summary["wall_time_s"] = round(wall_time_s, 3)
         summary["realtime_factor"] = round(duration_s / wall_time_s, 3)
     for key in ("seed", "sensing", "mismatch", "command", "forces", "pushes", "delta_max_mps2", "scenario"):
         if key in meta:
             summary[key] = meta[key]
-    sensing = meta.get("sensing")
-    if n and isinstance(sensing, dict) and sensing.get("name", "ideal") != "ideal":
+    if n and not ideal:
         # what the controller read against the truth: its sensors, state estimate and latency
         error = trace["com_vel_read_mps"] - trace["com_vel_mps"]
         summary["com_vel_read_error_rms_mps"] = [round(float(v), 6) for v in np.sqrt(np.nanmean(error**2, axis=0))]
