@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ..core.planner import rotation
 from .trace import Trace
 
 
@@ -42,20 +43,13 @@ def landing_errors_m(trace: Trace) -> np.ndarray:
         (forward, left) [m] per touchdown; k = 0 without measured soles (the reduced model).
     """
     support = trace["support"]
-    if len(support) < 2:
-        return np.zeros((0, 2))
+    touchdowns = np.flatnonzero((support[1:] == 0) & (support[:-1] != 0)) + 1
+    swing = (support[touchdowns - 1] > 0).astype(int)  # support 1: the left foot stands, the right one swings
     soles = trace["sole_meas_m"].reshape(-1, 2, 2)  # rows, (left, right), (x, y)
-    yaws = trace["sole_meas_yaw_rad"]
     reference = np.stack([trace["left_foot_m"][:, :2], trace["right_foot_m"][:, :2]], axis=1)
-    errors = []
-    for k in np.flatnonzero((support[1:] == 0) & (support[:-1] != 0)) + 1:
-        swing = 1 if support[k - 1] > 0 else 0  # support 1: the left foot stands, the right one swings
-        error = soles[k, swing] - reference[k - 1, swing]
-        if not np.all(np.isfinite(error)):
-            continue
-        c, s_ = math.cos(yaws[k, swing]), math.sin(yaws[k, swing])
-        errors.append((c * error[0] + s_ * error[1], -s_ * error[0] + c * error[1]))
-    return np.array(errors).reshape(-1, 2)
+    error = soles[touchdowns, swing] - reference[touchdowns - 1, swing]
+    local = np.einsum("kji,kj->ki", rotation(trace["sole_meas_yaw_rad"][touchdowns, swing]), error)  # Rᵀ e
+    return local[np.isfinite(local).all(axis=1)]
 
 
 def summarize(trace: Trace, fell: bool, failure: str | None, duration_s: float, wall_time_s: float | None = None) -> dict:
