@@ -76,7 +76,7 @@ class MotorCommand:
 
 
 def held_command(tau_ff_nm: np.ndarray, q_rad: np.ndarray, dq_radps: np.ndarray, qacc_radps2: np.ndarray,
-                 inertia_kgm2: np.ndarray, hold_s: float, bandwidth_radps: float) -> MotorCommand:
+                 inertia_kgm2: np.ndarray, hold_s: float, bandwidth_radps: float, check: bool = True) -> MotorCommand:
     """The command that holds the inverse dynamics' solution for ``hold_s`` (module docstring).
 
     Parameters
@@ -92,14 +92,24 @@ def held_command(tau_ff_nm: np.ndarray, q_rad: np.ndarray, dq_radps: np.ndarray,
         Δ, time until the next command [s], > 0.
     bandwidth_radps : float
         ω [rad/s], >= 0 (0: no PD, the torques alone).
+    check : bool
+        Check the command (:class:`MotorCommand`: one length, gains >= 0). Internal: False for
+        a caller whose arrays are right by construction, the inverse dynamics at every solve
+        (its inertias are the positive diagonal of a mass matrix, its ω checked by its settings).
     """
     if not hold_s > 0 or not bandwidth_radps >= 0:
         raise ParameterError(f"held_command needs hold_s > 0 and bandwidth_radps >= 0, got {hold_s!r}, {bandwidth_radps!r}")
     q_target = q_rad + dq_radps * hold_s + 0.5 * qacc_radps2 * hold_s**2
     dq_target = dq_radps + qacc_radps2 * hold_s
     inertia = np.asarray(inertia_kgm2, dtype=float)
-    return MotorCommand(q_rad=q_target, dq_radps=dq_target, kp_nm_per_rad=inertia * bandwidth_radps**2,
-                        kd_nms_per_rad=2.0 * inertia * bandwidth_radps, tau_ff_nm=np.asarray(tau_ff_nm, dtype=float).copy())
+    fields = {"q_rad": q_target, "dq_radps": dq_target, "kp_nm_per_rad": inertia * bandwidth_radps**2,
+              "kd_nms_per_rad": 2.0 * inertia * bandwidth_radps, "tau_ff_nm": np.asarray(tau_ff_nm, dtype=float).copy()}
+    if check:
+        return MotorCommand(**fields)
+    command = object.__new__(MotorCommand)  # the dataclass's own __init__ without __post_init__'s checks
+    for name, value in fields.items():
+        object.__setattr__(command, name, value)
+    return command
 
 
 __all__ = ["MotorCommand", "held_command"]
