@@ -8,6 +8,15 @@ import numpy as np
 from ...exceptions import ModelError
 
 
+def as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice when it is a run of consecutive increasing integers (indexing with it
+    then gives a view of the same elements instead of a copy), else ``index`` itself."""
+    index = np.asarray(index)
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
 class ActuatorMap:
     """Which IK coordinate each actuator of a simulation model drives.
 

@@ -46,10 +46,9 @@ from ...validation import check_nonnegative
 from ..model import compile_model
 from ..robot import SIDES, MujocoRobot
 from ..state_estimation import RobotState, TrueState
-from .actuators import ActuatorMap, actuator_torque_limits_nm
+from .actuators import ActuatorMap, actuator_torque_limits_nm, as_slice
 from .motor_command import MotorCommand, held_command
-
-_NO_BOUND = 1e9  # DAQP's stand-in for an infinite row bound
+from .qp_rows import NO_BOUND, QpRows, contact_cone
 
 
 @dataclass(frozen=True)
@@ -210,15 +209,24 @@ class InverseDynamicsQp:
         self._half_length = 0.5 * robot.spec.sole_length_m * settings.cop_margin
         self._half_width = 0.5 * robot.spec.sole_width_m * settings.cop_margin
         self._root = self.robot.root_id
-        self._dof = own.sim_dof_index
-        self._qpos_index = own.sim_qpos_index
+        self._n_motors = len(own.sim_dof_index)
+        # the motors' dofs and qpos entries, and their dofs and qpos entries in the IK model: slices
+        # where they are runs (views instead of copies)
+        self._dof = as_slice(own.sim_dof_index)
+        self._qpos_index = as_slice(own.sim_qpos_index)
+        self._ik_dof = as_slice(actuators.ik_dof_index)
+        self._ik_qpos = as_slice(actuators.ik_qpos_index)
         self._friction_nm = model.dof_frictionloss[self._dof].copy()
         self._limits = actuator_torque_limits_nm(model)  # rows in actuator order, as self._dof
+        self._timestep_s = float(model.opt.timestep)  # of the QP's own model, which nothing changes
         nv = model.nv
         self._M = np.zeros((nv, nv))
+        self._jac = np.zeros((2, 6, nv))  # per sole: translation and rotation rows of its Jacobian
+        self._jac_dot = np.zeros((2, 6, nv))
         self._jac_torso = np.zeros((3, nv))
         self._jac_torso_rot = np.zeros((3, nv))
         self._jac_load = np.zeros((3, nv))
+        self._torso_point = np.zeros(3)
         error = np.asarray(com_model_error_m, dtype=float)
         weight_n = self.robot.mass_kg * GRAVITY_MPS2
         # e × (0, 0, -m g): the model's weight at c + e, as a moment about the true CoM
@@ -227,29 +235,23 @@ class InverseDynamicsQp:
         # the Hessian's constant part: the regularisation, the posture task (a selection of q̈)
         # and the root orientation task (Rᵀ R = I for the root's rotation R)
         self._H_const = settings.regularisation * np.eye(nv + 12)
-        self._H_const[self._dof, self._dof] += settings.posture_weight
+        self._H_const[own.sim_dof_index, own.sim_dof_index] += settings.posture_weight
         self._H_const[3:6, 3:6] += settings.root_weight * np.eye(3)
         # rows of a sole in contact, on its wrench in the sole frame (f, m): normal force >= its
         # minimum; then each of f_x, f_y, m_x, m_y, m_z within ± its limit times the normal force
-        limits = (settings.friction, settings.friction, self._half_width, self._half_length, settings.torsion_m)
-        self._contact_rows = np.zeros((11, 6))
-        self._contact_rows[0, 2] = 1.0
-        for k, (component, limit) in enumerate(zip((0, 1, 3, 4, 5), limits)):
-            self._contact_rows[1 + 2 * k, component] = 1.0
-            self._contact_rows[2 + 2 * k, component] = -1.0
-            self._contact_rows[1 + 2 * k:3 + 2 * k, 2] = -limit
-        self._contact_lower = np.concatenate([[settings.min_normal_force_n], np.full(10, -_NO_BOUND)])
-        self._contact_upper = np.concatenate([[_NO_BOUND], np.zeros(10)])
+        self._contact_rows, self._contact_lower, self._contact_upper = contact_cone(
+            settings.friction, self._half_width, self._half_length, settings.torsion_m, settings.min_normal_force_n)
+        self._rows: dict[tuple[bool, bool], QpRows] = {}  # per pair of soles in contact
         self._jac_com_prev: np.ndarray | None = None
         self._ang_prev: np.ndarray | None = None
         self._previous_solve_s: float | None = None  # time of the previous solve, for J̇ by differences
-        # reference sole velocities of the previous control tick, for the swing acceleration
-        self._foot_ref: tuple[float, dict[str, np.ndarray]] | None = None
-        self._foot_acc = {side: np.zeros(3) for side in SIDES}
+        # reference sole velocities (left, right) of the previous control tick, for the swing acceleration
+        self._foot_ref: tuple[float, tuple[np.ndarray, np.ndarray]] | None = None
+        self._foot_acc = (np.zeros(3), np.zeros(3))
         self.failures = 0
         #: Cycles whose QP had no solution within the torque limits and was solved without them.
         self.limit_relaxations = 0
-        self.last_torques_nm = np.zeros(len(self._dof))
+        self.last_torques_nm = np.zeros(self._n_motors)
         #: The last solution: joint accelerations (nv,) and sole wrenches {side: (6,)} (world frame,
         #: force then moment about the sole centre), for inspection and tests.
         self.last_qacc: np.ndarray | None = None
@@ -258,8 +260,11 @@ class InverseDynamicsQp:
         self.last_wrenches: dict[str, np.ndarray] = {}
 
     def _jacobians(self, side: str, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Jacobian and its time derivative (6, nv) of ``point`` on the sole body of ``side``
+        (translation rows, then rotation), in buffers that the next call for ``side`` overwrites."""
         m, d = self.model, self.data
-        jac, jac_dot = np.zeros((6, m.nv)), np.zeros((6, m.nv))
+        i = SIDES.index(side)
+        jac, jac_dot = self._jac[i], self._jac_dot[i]
         mujoco.mj_jac(m, d, jac[:3], jac[3:], point, self._body[side])
         mujoco.mj_jacDot(m, d, jac_dot[:3], jac_dot[3:], point, self._body[side])
         return jac, jac_dot
@@ -267,7 +272,7 @@ class InverseDynamicsQp:
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The actuated joints' positions [rad] and velocities [rad/s] as :attr:`state` gives
         them (the encoders, under modelled sensors), each shape (nu,), in actuator order."""
-        return self.state.qpos[self._qpos_index], self.state.qvel[self._dof]
+        return self.state.qpos[self._qpos_index].copy(), self.state.qvel[self._dof].copy()
 
     @property
     def torque_limits_nm(self) -> np.ndarray:
@@ -280,9 +285,52 @@ class InverseDynamicsQp:
         one (:func:`~robust_ismpc.sim.whole_body.motor_command.held_command`); arguments as
         :meth:`torques`."""
         tau = self.torques(reference, ik_qpos, ik_qvel, ik_qacc, weighed_mass_kg)
-        qacc = np.zeros(len(self._dof)) if self.last_qacc is None else self.last_qacc[self._dof]
+        qacc = np.zeros(self._n_motors) if self.last_qacc is None else self.last_qacc[self._dof]
+        # the arrays are this solve's, of one length, and the mass matrix's diagonal is positive
         return held_command(tau, self.data.qpos[self._qpos_index], self.data.qvel[self._dof], qacc,
-                            np.diag(self._M)[self._dof], hold_s, self.settings.joint_bandwidth_radps)
+                            self._M.diagonal()[self._dof], hold_s, self.settings.joint_bandwidth_radps,
+                            check=False)
+
+    def _bias(self, reference: GaitReference, weighed_mass_kg: float | None) -> np.ndarray:
+        """The bias forces of the QP's dynamics, shape (nv,): gravity, Coriolis and passive forces,
+        the load the model lacks and the moments and forces on the torso (:meth:`torques`)."""
+        m, d = self.model, self.data
+        bias = d.qfrc_bias - d.qfrc_passive
+        load_kg = 0.0 if weighed_mass_kg is None else float(weighed_mass_kg) - self.robot.mass_kg
+        if load_kg != 0.0:
+            # the weight the model lacks (or has in excess), at the CoM: a load, not a moment
+            mujoco.mj_jac(m, d, self._jac_load, None, d.subtree_com[self._root], self._root)
+            bias = bias + self._jac_load[2] * (load_kg * GRAVITY_MPS2)
+        # the moments on the robot act on the torso body, where the measured moment they cancel
+        # is applied: the model error's weight moment, then the disturbance the plan was made
+        # for, its moment part as a moment (τ_y, -τ_x) = m h w_moment and the rest as a force
+        # m w_force at the CoM's height
+        disturbed = np.count_nonzero(reference.disturbance_mps2) > 0
+        if disturbed or self._has_model_error:
+            torso = self.robot.torso_id
+            point = self._torso_point
+            point[:2] = d.xipos[torso, :2]
+            point[2] = d.subtree_com[self._root, 2]
+            mujoco.mj_jac(m, d, self._jac_torso, self._jac_torso_rot, point, torso)
+        if self._has_model_error:
+            bias = bias - self._jac_torso_rot.T @ self._model_error_moment_nm
+        if disturbed:
+            moment_x, moment_y = float(reference.disturbance_moment_mps2[0]), float(reference.disturbance_moment_mps2[1])
+            mass_kg = self.robot.mass_kg
+            force_x = float(reference.disturbance_mps2[0]) - moment_x
+            force_y = float(reference.disturbance_mps2[1]) - moment_y
+            wrench_force = np.array([mass_kg * force_x, mass_kg * force_y, mass_kg * 0.0])
+            arm = mass_kg * self.robot.spec.com_height_m
+            wrench_moment = np.array([arm * -moment_y, arm * moment_x, arm * 0.0])
+            bias = bias - self._jac_torso.T @ wrench_force - self._jac_torso_rot.T @ wrench_moment
+        return bias
+
+    def _qp_rows(self, in_contact: tuple[bool, bool]) -> QpRows:
+        rows = self._rows.get(in_contact)
+        if rows is None:
+            rows = self._rows[in_contact] = QpRows(in_contact, self.model.nv, self._n_motors, self._contact_lower,
+                                                   self._contact_upper)
+        return rows
 
     def torques(self, reference: GaitReference, ik_qpos: np.ndarray, ik_qvel: np.ndarray,
                 ik_qacc: np.ndarray, weighed_mass_kg: float | None = None) -> np.ndarray:
@@ -303,93 +351,68 @@ class InverseDynamicsQp:
         """
         m, d, s = self.model, self.data, self.settings
         self.solve_count += 1
-        scene = self.scene_data
         d.qpos[:] = self.state.qpos
         d.qvel[:] = self.state.qvel
-        d.time = scene.time
+        d.time = self.scene_data.time
         mujoco.mj_forward(m, d)
         nv = m.nv
-        n = nv + 12
+        dof = self._dof
         mujoco.mj_fullM(m, d, self._M)
         M = self._M
         # CoM Jacobian; J̇ q̇ by a backward difference of the Jacobian
         jac_com = np.zeros((3, nv))
         mujoco.mj_jacSubtreeCom(m, d, jac_com, self._root)
-        bias = d.qfrc_bias - d.qfrc_passive
-        load_kg = 0.0 if weighed_mass_kg is None else float(weighed_mass_kg) - self.robot.mass_kg
-        if load_kg != 0.0:
-            # the weight the model lacks (or has in excess), at the CoM: a load, not a moment
-            mujoco.mj_jac(m, d, self._jac_load, None, d.subtree_com[self._root], self._root)
-            bias = bias + self._jac_load[2] * (load_kg * GRAVITY_MPS2)
-        # the moments on the robot act on the torso body, where the measured moment they cancel
-        # is applied: the model error's weight moment, then the disturbance the plan was made
-        # for, its moment part as a moment (τ_y, -τ_x) = m h w_moment and the rest as a force
-        # m w_force at the CoM's height
-        disturbed = bool(np.any(reference.disturbance_mps2))
-        if disturbed or self._has_model_error:
-            torso = self.robot.torso_id
-            point = np.array([*d.xipos[torso][:2], d.subtree_com[self._root][2]])
-            mujoco.mj_jac(m, d, self._jac_torso, self._jac_torso_rot, point, torso)
-        if self._has_model_error:
-            bias = bias - self._jac_torso_rot.T @ self._model_error_moment_nm
-        if disturbed:
-            moment = np.asarray(reference.disturbance_moment_mps2, dtype=float)[:2]
-            force = np.asarray(reference.disturbance_mps2, dtype=float)[:2] - moment
-            mass_kg = self.robot.mass_kg
-            wrench_force = mass_kg * np.array([force[0], force[1], 0.0])
-            wrench_moment = mass_kg * self.robot.spec.com_height_m * np.array([-moment[1], moment[0], 0.0])
-            bias = bias - self._jac_torso.T @ wrench_force - self._jac_torso_rot.T @ wrench_moment
+        bias = self._bias(reference, weighed_mass_kg)
         qvel = d.qvel
-        feet = {"left": reference.left_foot, "right": reference.right_foot}
+        feet = (reference.left_foot, reference.right_foot)
         if self._foot_ref is None or reference.t_s != self._foot_ref[0]:  # a new control tick
             if self._foot_ref is not None and reference.t_s > self._foot_ref[0]:
                 dt = reference.t_s - self._foot_ref[0]
-                self._foot_acc = {side: (feet[side].vel_mps - self._foot_ref[1][side]) / dt for side in SIDES}
-            self._foot_ref = (reference.t_s, {side: feet[side].vel_mps.copy() for side in SIDES})
+                self._foot_acc = ((feet[0].vel_mps - self._foot_ref[1][0]) / dt,
+                                  (feet[1].vel_mps - self._foot_ref[1][1]) / dt)
+            self._foot_ref = (reference.t_s, (feet[0].vel_mps.copy(), feet[1].vel_mps.copy()))
         # the reference is the state at the end of the control period: compare it with the
         # current state at the current time
         lead = max(0.0, reference.t_s - float(d.time))
-        soles = {side: self.robot.sole_frame(side) for side in SIDES}
-        jac = {side: self._jacobians(side, soles[side][0]) for side in SIDES}
-        stance = [side for side in SIDES if feet[side].in_contact] or list(SIDES)
-        real_anchor = sum(soles[side][0] for side in stance) / len(stance)
-        ref_anchor = sum(feet[side].pos_m for side in stance) / len(stance)
+        soles = [self.robot.sole_frame(side) for side in SIDES]
+        jac, jac_dot = zip(*(self._jacobians(side, soles[i][0]) for i, side in enumerate(SIDES)))
+        in_contact = (bool(feet[0].in_contact), bool(feet[1].in_contact))
+        stance = [i for i in (0, 1) if in_contact[i]] or [0, 1]
+        real_anchor = sum(soles[i][0] for i in stance) / len(stance)
+        ref_anchor = sum(feet[i].pos_m for i in stance) / len(stance)
 
         # Variables x = (q̈ (nv), left sole wrench (6), right sole wrench (6)). Every task row acts
         # on q̈ only: its Hessian and gradient terms go into the q̈ block, from one stack of
         # weighted rows √w (J q̈ - b).
-        contact_sides = [side for side in SIDES if side in stance and feet[side].in_contact]
         task_J: list[np.ndarray] = []
         task_b: list[np.ndarray] = []
-        n_eq = 6 + 6 * len(contact_sides)
-        n_dof = len(self._dof)
-        m_rows = n_eq + sum(11 if feet[side].in_contact else 6 for side in SIDES) + n_dof
-        A = np.zeros((m_rows, n))
-        upper_all = np.empty(m_rows)
-        lower_all = np.empty(m_rows)
+        rows = self._qp_rows(in_contact)
+        A, upper_all, lower_all = rows.A, rows.upper, rows.lower
         # floating-base rows of the dynamics
         A[:6, :nv] = M[:6]
-        A[:6, nv:nv + 6] = -jac["left"][0][:, :6].T
-        A[:6, nv + 6:] = -jac["right"][0][:, :6].T
+        A[:6, nv:nv + 6] = -jac[0][:, :6].T
+        A[:6, nv + 6:] = -jac[1][:, :6].T
         upper_all[:6] = -bias[:6]
         row = 6
-        for side in SIDES:
-            J, Jdot = jac[side]
+        for i in (0, 1):
+            J, Jdot = jac[i], jac_dot[i]
             velocity = J @ qvel
-            if side in contact_sides:
+            if in_contact[i]:
                 A[row:row + 6, :nv] = J
                 upper_all[row:row + 6] = -Jdot @ qvel - s.contact_damping * velocity
                 row += 6
                 continue
-            foot_pos, foot_vel = _back_in_time(feet[side].pos_m, feet[side].vel_mps, self._foot_acc[side], lead)
+            foot = feet[i]
+            foot_pos, foot_vel = _back_in_time(foot.pos_m, foot.vel_mps, self._foot_acc[i], lead)
             target = real_anchor + (foot_pos - ref_anchor)
-            linear = (self._foot_acc[side] + s.foot_kp * (target - soles[side][0])
+            linear = (self._foot_acc[i] + s.foot_kp * (target - soles[i][0])
                       + s.foot_kd * (foot_vel - velocity[:3]))
-            angular = (s.foot_kp * _rotation_error(_yaw_matrix(feet[side].yaw_rad), soles[side][1])
+            angular = (s.foot_kp * _rotation_error(_yaw_matrix(foot.yaw_rad), soles[i][1])
                        - s.foot_kd * velocity[3:])
             w = math.sqrt(s.foot_weight)
             task_J.append(w * J)
             task_b.append(w * (np.concatenate([linear, angular]) - Jdot @ qvel))
+        n_eq = rows.n_eq
         lower_all[:n_eq] = upper_all[:n_eq]
         # CoM (relative to the stance soles)
         com = d.subtree_com[self._root]
@@ -421,7 +444,7 @@ class InverseDynamicsQp:
         J_tasks = np.concatenate(task_J)
         H = self._H_const.copy()
         H[:nv, :nv] += J_tasks.T @ J_tasks
-        g = np.zeros(n)
+        g = np.zeros(nv + 12)
         g[:nv] = -(np.concatenate(task_b) @ J_tasks)
         # root orientation towards the IK configuration's (free joint: angular velocity in the
         # body frame); its Hessian term is constant, in _H_const
@@ -432,43 +455,35 @@ class InverseDynamicsQp:
         root_error = s.root_kp * _rotation_error(target_rot.reshape(3, 3), root_rot) - s.root_kd * omega
         g[3:6] -= s.root_weight * (root_error @ root_rot)
         # posture towards the IK configuration (its Hessian term is constant, in _H_const)
-        act = self.actuators
         q = d.qpos[self._qpos_index]
-        v = qvel[self._dof]
-        posture = (ik_qacc[act.ik_dof_index] + s.posture_kp * (ik_qpos[act.ik_qpos_index] - q)
-                   + s.posture_kd * (ik_qvel[act.ik_dof_index] - v))
-        g[self._dof] -= s.posture_weight * posture
+        v = qvel[dof]
+        posture = (ik_qacc[self._ik_dof] + s.posture_kp * (ik_qpos[self._ik_qpos] - q)
+                   + s.posture_kd * (ik_qvel[self._ik_dof] - v))
+        g[dof] -= s.posture_weight * posture
 
         # inequalities: a sole in contact keeps its force in the friction pyramid and its centre of
-        # pressure in the shrunk sole; a sole in the air carries no wrench
-        for i, side in enumerate(SIDES):
-            start = nv + 6 * i
-            if not feet[side].in_contact:
-                A[row:row + 6, start:start + 6] = np.eye(6)
-                upper_all[row:row + 6] = lower_all[row:row + 6] = 0.0
-                row += 6
-                continue
-            RT = soles[side][1].T  # rows: the sole's axes in the world
-            A[row:row + 11, start:start + 3] = self._contact_rows[:, :3] @ RT
-            A[row:row + 11, start + 3:start + 6] = self._contact_rows[:, 3:] @ RT
-            lower_all[row:row + 11] = self._contact_lower
-            upper_all[row:row + 11] = self._contact_upper
-            row += 11
+        # pressure in the shrunk sole; a sole in the air carries no wrench (rows filled in QpRows)
+        for i in (0, 1):
+            if in_contact[i]:
+                start, first = nv + 6 * i, rows.wrench_row[i]
+                RT = soles[i][1].T  # rows: the sole's axes in the world
+                A[first:first + 11, start:start + 3] = self._contact_rows[:, :3] @ RT
+                A[first:first + 11, start + 3:start + 6] = self._contact_rows[:, 3:] @ RT
+        row = rows.torque_row
         torque_rows = A[row:]
-        torque_rows[:, :nv] = M[self._dof]
-        torque_rows[:, nv:nv + 6] = -jac["left"][0][:, self._dof].T
-        torque_rows[:, nv + 6:] = -jac["right"][0][:, self._dof].T
-        torque_bias = bias[self._dof]
-        np.minimum(self._limits[:, 1] - torque_bias, _NO_BOUND, out=upper_all[row:])
-        np.maximum(self._limits[:, 0] - torque_bias, -_NO_BOUND, out=lower_all[row:])
-        sense = np.zeros(m_rows, dtype=np.int32)
-        sense[:n_eq] = 5  # equality rows
+        torque_rows[:, :nv] = M[dof]
+        torque_rows[:, nv:nv + 6] = -jac[0][:, dof].T
+        torque_rows[:, nv + 6:] = -jac[1][:, dof].T
+        torque_bias = bias[dof]
+        np.minimum(self._limits[:, 1] - torque_bias, NO_BOUND, out=upper_all[row:])
+        np.maximum(self._limits[:, 0] - torque_bias, -NO_BOUND, out=lower_all[row:])
+        sense = rows.sense
         x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0 and np.isfinite(self._limits).any():
             # no motion within the torque limits meets the contacts: take the unlimited solution
             # (the motors saturate, as they would with any controller) rather than none
             self.limit_relaxations += 1
-            upper_all[row:], lower_all[row:] = _NO_BOUND, -_NO_BOUND  # the torque rows
+            upper_all[row:], lower_all[row:] = NO_BOUND, -NO_BOUND  # the torque rows
             x, _, flag, _ = daqp.solve(H, g, A, upper_all, lower_all, sense)
         if flag < 0:
             self.failures += 1
@@ -477,7 +492,7 @@ class InverseDynamicsQp:
             return self.last_torques_nm
         self.last_torques_nm = torque_rows @ x + torque_bias
         if s.friction_smoothing_radps > 0:
-            velocity_next = qvel[self._dof] + m.opt.timestep * x[:nv][self._dof]
+            velocity_next = qvel[dof] + self._timestep_s * x[:nv][dof]
             self.last_torques_nm = self.last_torques_nm + self._friction_nm * np.tanh(
                 velocity_next / s.friction_smoothing_radps)
         self.last_qacc = x[:nv].copy()
