@@ -85,7 +85,9 @@ class ContactState:
 
     def moment_about(self, point_m: np.ndarray) -> np.ndarray:
         """Moment of the contact forces about ``point_m`` (3,) [N m], shape (3,)."""
-        return self.moment_origin_nm - _cross(np.asarray(point_m, dtype=float), self.force_n)
+        px, py, pz = np.asarray(point_m, dtype=float).tolist()
+        fx, fy, fz = self.force_n.tolist()
+        return self.moment_origin_nm - np.array([py * fz - pz * fy, pz * fx - px * fz, px * fy - py * fx])
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -176,17 +178,23 @@ def distance_outside(point_m: np.ndarray, polygon_m: np.ndarray) -> float:
         return math.inf
     if len(poly) == 1:
         return float(np.linalg.norm(p - poly[0]))
-    a = poly
-    b = np.roll(poly, -1, axis=0)
-    edge = b - a
-    rel = p - a
-    if len(poly) >= 3:
-        cross = edge[:, 0] * rel[:, 1] - edge[:, 1] * rel[:, 0]
-        if np.all(cross >= -1e-12):
-            return 0.0
-    t = np.clip(np.einsum("ij,ij->i", rel, edge) / np.maximum(np.einsum("ij,ij->i", edge, edge), 1e-300), 0, 1)
-    closest = a + t[:, None] * edge
-    return float(np.min(np.linalg.norm(p - closest, axis=1)))
+    # plain Python floats: a support polygon has at most a few corners per foot
+    px, py = p.tolist()
+    vertices = poly.tolist()
+    edges = []  # per edge: its start, the edge vector and the point relative to the start
+    for (ax, ay), (bx, by) in zip(vertices, vertices[1:] + vertices[:1]):
+        edges.append((ax, ay, bx - ax, by - ay, px - ax, py - ay))
+    if len(vertices) >= 3 and all(ex * ry - ey * rx >= -1e-12 for _, _, ex, ey, rx, ry in edges):
+        return 0.0
+    distance = math.inf
+    for ax, ay, ex, ey, rx, ry in edges:
+        t = (rx * ex + ry * ey) / max(ex * ex + ey * ey, 1e-300)
+        t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+        dx, dy = px - (ax + t * ex), py - (ay + t * ey)
+        to_edge = math.sqrt(dx * dx + dy * dy)
+        if not to_edge >= distance:  # a NaN wins, as in np.min
+            distance = to_edge
+    return distance
 
 
 class MujocoRobot:
@@ -396,7 +404,8 @@ class MujocoRobot:
                 else:
                     continue
                 mujoco.mj_contactForce(m, d, i, wrench)
-                f0, f1, f2 = sign * wrench[0], sign * wrench[1], sign * wrench[2]
+                w0, w1, w2 = wrench[:3].tolist()
+                f0, f1, f2 = sign * w0, sign * w1, sign * w2
                 r = frames[i]  # rows: contact normal and tangents in the world
                 fx = f0 * r[0] + f1 * r[3] + f2 * r[6]
                 fy = f0 * r[1] + f1 * r[4] + f2 * r[7]
@@ -413,25 +422,28 @@ class MujocoRobot:
                 mz_sum += px * fy - py * fx
                 moment[side][0] += px * fzi - pz * fx
                 moment[side][1] += py * fzi - pz * fy
-        fz = np.array(fz)
-        moment = np.array(moment)
         force_sum = np.array([fx_sum, fy_sum, fz_sum])
-        moment_origin = np.array([mx_sum, my_sum, mz_sum])
-        in_contact = fz > self.contact_threshold_n
-        cops: list[np.ndarray | None] = [moment[s] / fz[s] if in_contact[s] else None for s in range(2)]
-        total = fz[in_contact].sum()
-        cop = moment[in_contact].sum(axis=0) / total if total > 0 else None
+        in_contact = [fz[0] > self.contact_threshold_n, fz[1] > self.contact_threshold_n]
+        cops: list[np.ndarray | None] = [np.array(moment[s]) / fz[s] if in_contact[s] else None for s in range(2)]
+        # over the feet in contact: the sum of their moments over the sum of their normal forces
+        total = cop_x = cop_y = 0.0
+        for s in range(2):
+            if in_contact[s]:
+                total += fz[s]
+                cop_x += moment[s][0]
+                cop_y += moment[s][1]
+        cop = np.array([cop_x, cop_y]) / total if total > 0 else None
         return ContactState(
-            left_force_n=float(fz[0]),
-            right_force_n=float(fz[1]),
-            left_in_contact=bool(in_contact[0]),
-            right_in_contact=bool(in_contact[1]),
+            left_force_n=fz[0],
+            right_force_n=fz[1],
+            left_in_contact=in_contact[0],
+            right_in_contact=in_contact[1],
             left_cop_m=cops[0],
             right_cop_m=cops[1],
             cop_m=cop,
             horizontal_force_n=force_sum[:2].copy(),
             force_n=force_sum,
-            moment_origin_nm=moment_origin,
+            moment_origin_nm=np.array([mx_sum, my_sum, mz_sum]),
         )
 
     def support_polygon(self, contacts: ContactState | None = None) -> np.ndarray:
