@@ -35,6 +35,7 @@ COP_JITTER_SOLE_FRACTION = 0.05
 LIMIT_TIME_FRACTION = 0.02
 #: An actuator is at its limit within this fraction of it.
 _AT_LIMIT = 0.99
+_LIMIT_JOINT = int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT)  # a plain int: numpy compares it fast
 
 
 class ModelDiagnostics:
@@ -64,6 +65,7 @@ class ModelDiagnostics:
             limited = model.actuator_forcelimited.astype(bool)
             torque_limits_nm = np.where(limited[:, None], model.actuator_forcerange, [-np.inf, np.inf])
         self.torque_limits_nm = np.asarray(torque_limits_nm, dtype=float)
+        self._geom_body = model.geom_bodyid.tolist()
         self.ticks = 0
         self.self_contacts_n: dict[tuple[str, str], float] = {}
         self.torque_limit_ticks = np.zeros(model.nu, dtype=int)
@@ -84,23 +86,23 @@ class ModelDiagnostics:
         of vertices [m]; None or empty: the robot is in the air)."""
         model = self.model
         self.ticks += 1
-        for i in range(data.ncon):
-            contact = data.contact[i]
-            b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
-            if b1 not in self.robot_bodies or b2 not in self.robot_bodies or b1 == b2:
-                continue
-            mujoco.mj_contactForce(model, data, i, self._force)
-            force = abs(float(self._force[0]))
-            pair = tuple(sorted((model.body(b1).name, model.body(b2).name)))
-            self.self_contacts_n[pair] = max(self.self_contacts_n.get(pair, 0.0), force)
+        if data.ncon:
+            geom_body, robot = self._geom_body, self.robot_bodies
+            for i, (g1, g2) in enumerate(zip(data.contact.geom1.tolist(), data.contact.geom2.tolist())):
+                b1, b2 = geom_body[g1], geom_body[g2]
+                if b1 not in robot or b2 not in robot or b1 == b2:
+                    continue
+                mujoco.mj_contactForce(model, data, i, self._force)
+                force = abs(float(self._force[0]))
+                pair = tuple(sorted((model.body(b1).name, model.body(b2).name)))
+                self.self_contacts_n[pair] = max(self.self_contacts_n.get(pair, 0.0), force)
         if model.nu:
             low, high = self.torque_limits_nm[:, 0], self.torque_limits_nm[:, 1]
             force = data.actuator_force
             self.torque_limit_ticks += (force >= _AT_LIMIT * high) & np.isfinite(high) & (high > 0)
             self.torque_limit_ticks += (force <= _AT_LIMIT * low) & np.isfinite(low) & (low < 0)
-        limit_rows = (data.efc_type[:data.nefc] == mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT) & (
-            np.abs(data.efc_force[:data.nefc]) > 1e-6)
-        for joint in set(int(j) for j in data.efc_id[:data.nefc][limit_rows]):
+        limit_rows = (data.efc_type[:data.nefc] == _LIMIT_JOINT) & (np.abs(data.efc_force[:data.nefc]) > 1e-6)
+        for joint in set(data.efc_id[:data.nefc][limit_rows].tolist()):
             self.joint_limit_ticks[joint] += 1
         if cop_xy_m is not None:
             cop = np.asarray(cop_xy_m, dtype=float)[:2].copy()
