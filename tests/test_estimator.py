@@ -11,6 +11,7 @@ from robust_ismpc.estimation.estimator import (
     EstimatorParams,
     StateEstimator,
     disturbance_gain,
+    disturbance_noise_std,
     steady_state_gain,
 )
 from robust_ismpc.estimation.filters import MidrangeFilter, MidrangeParams, PersistenceFilter
@@ -174,6 +175,16 @@ def test_with_noisy_sensors_the_filter_is_unbiased_and_ten_times_quieter_than_di
     np.testing.assert_allclose(a.mean(axis=0), w, atol=0.02)
     assert np.all(a.std(axis=0) < 0.1)
     assert np.all(b.std(axis=0) > 10 * a.std(axis=0))
+
+
+def test_the_estimates_noise_is_the_filters_stationary_one():
+    """The standard deviation of ŵ under a constant w and white sensor noise, over 60 s, is the
+    one :func:`disturbance_noise_std` computes from the filter (within 10 %); exact signals: 0."""
+    estimator = DisturbanceEstimator(0.03, DT, SENSOR_VEL_NOISE, SENSOR_ACC_NOISE)
+    estimates = _noisy_estimates(estimator, np.array([0.3, -0.1]), 60.0, seed=7)[100:]
+    assert estimator.noise_std_mps2 == disturbance_noise_std(SENSOR_VEL_NOISE, SENSOR_ACC_NOISE, DT, 0.03)
+    np.testing.assert_allclose(estimates.std(axis=0), estimator.noise_std_mps2, rtol=0.1)
+    assert DisturbanceEstimator(0.03, DT).noise_std_mps2 == 0.0
 
 
 def test_with_noisy_sensors_a_moment_is_estimated_like_a_force():

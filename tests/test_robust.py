@@ -414,3 +414,56 @@ def test_a_measurement_the_mpc_cannot_plan_from_is_adopted_as_far_as_it_can_and_
         if error:
             np.testing.assert_allclose(controller.info.dcm_m, predicted_dcm, atol=0.01)
     assert counts == {0.0: 0, 0.5: 1}
+
+
+def test_an_infeasible_cycle_within_the_sensors_noise_keeps_the_step_timing():
+    """Noisy sensors (the realistic preset's 3 cm/s), walking, in a double support (where the QP
+    alone decides the re-timing), the model's lateral DCM just inside what the QP can plan from: a
+    measurement whose estimate lies just outside, by less than the velocity
+    noise makes in the DCM (σ_v / η), is planned from the model's prediction and the step keeps its
+    timing; the same estimate taken as a new disturbance (measured far outside that) is re-timed."""
+    from robust_ismpc.core.mpc import MpcState
+    from robust_ismpc.estimation.estimator import EstimatorParams
+    from robust_ismpc.exceptions import InfeasibleMpc
+
+    noisy = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5,
+                            sensor_vel_noise_mps=0.03, sensor_contact_acc_noise_mps2=0.28)
+
+    def walking_controller():
+        controller = RobustIsmpcController(ROBOT, MpcParams(), estimator=noisy)
+        plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
+        controller.reset(plan, np.zeros(2))
+        t = 0.0
+        while t < plan.touchdown_s[5] + 0.03 - 1e-9:  # into the double support after step 5's touchdown
+            controller.step(t)
+            t = round(t + controller.dt, 9)
+        return controller, t
+
+    def plannable(controller, t, dcm_shift_m):
+        state = controller._state_for_mpc(t)
+        try:
+            IsmpcController._solve_qp(controller, MpcState(t_s=t, dcm_m=state.dcm_m + [0.0, dcm_shift_m],
+                                                           zmp_m=state.zmp_m))
+        except InfeasibleMpc:
+            return False
+        return True
+
+    controller, t = walking_controller()
+    side = 1.0 if plannable(controller, t, 0.05) is False else -1.0
+    low, high = 0.0, side * 0.2  # the lateral DCM shift at the edge of what the QP plans from
+    assert plannable(controller, t, low) and not plannable(controller, t, high)
+    for _ in range(30):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if plannable(controller, t, mid) else (low, mid)
+    gain = controller.estimator.gain
+    per_dcm = gain[0, 1] * controller.eta + gain[1, 1]  # estimated DCM shift per measured DCM shift
+    gate = noisy.sensor_vel_noise_mps / controller.eta
+    outcomes = {}
+    for name, inside_by, beyond in (("noise", 0.001, 0.5 * gate), ("push", 0.001, 3.0 * gate)):
+        controller, t = walking_controller()
+        controller.state[1, 1] += controller.eta * (low - np.sign(side) * inside_by)  # the model: plannable
+        measured_shift = np.sign(side) * (inside_by + beyond) / per_dcm
+        controller.step(t, _measurement_of_model(controller, np.zeros(2), [0.0, measured_shift]))
+        outcomes[name] = (controller.timing_adaptations, controller.prediction_replans)
+    assert outcomes["noise"] == (0, 1)
+    assert outcomes["push"][0] >= 1

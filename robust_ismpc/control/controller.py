@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -251,37 +252,46 @@ class IsmpcController:
         return offset
 
     def _solve_plannable(self, state: MpcState) -> MpcPlan:
-        """Solve from the estimated state; if that QP is infeasible, from the state moved half-way,
-        then all the way, back to the model's prediction, with w̃ moved back by the same fraction
-        to the previous cycle's (the measurement is adopted as far as the MPC can plan from it; the
-        whole body absorbs the rest). Counted in :attr:`prediction_replans`: while a force is
-        beyond what the MPC can plan with, w̃ stays at its last plannable value (docs/sweeps.md,
-        "The weakest rightward force cell")."""
+        """Solve from the estimated state; if that QP is infeasible, from the state moved towards
+        the model's prediction (:meth:`_solve_towards_prediction`): the measurement is adopted as
+        far as the MPC can plan from it; the whole body absorbs the rest. Counted in
+        :attr:`prediction_replans`: while a force is beyond what the MPC can plan with, w̃ stays at
+        its last plannable value (docs/sweeps.md, "The weakest rightward force cell")."""
         try:
             return self._solve_qp(state)
         except InfeasibleMpc:
-            predicted = self._predicted_state
-            if predicted is None or self.estimator.params.exact:
+            result = self._solve_towards_prediction(state.t_s, self._solve_qp)
+            if result is None:
                 raise
-            estimated = self.state[:2].copy()
-            disturbance = self.disturbance_mps2.copy()
-            previous_w = self._previous_disturbance
-            if np.allclose(estimated, predicted) and np.allclose(disturbance, previous_w):
-                raise
-            for fraction in (0.5, 0.0):
-                self.state[:2] = predicted + fraction * (estimated - predicted)
-                self.disturbance_mps2 = previous_w + fraction * (disturbance - previous_w)
-                retry = self._state_for_mpc(state.t_s)
-                try:
-                    result = self._solve_qp(retry)
-                except InfeasibleMpc:
-                    continue
-                self.info.dcm_m = retry.dcm_m
-                self.prediction_replans += 1
-                return result
-            self.state[:2] = estimated
-            self.disturbance_mps2 = disturbance
-            raise
+            return result
+
+    def _solve_towards_prediction(self, t_s: float, solve: Callable[[MpcState], MpcPlan]) -> MpcPlan | None:
+        """Solve with ``solve`` from the estimated state moved half-way, then all the way, back to
+        the model's prediction, with w̃ moved back by the same fraction to the previous cycle's; the
+        plan, or None (state and w̃ left as they were) if neither is feasible, the estimator is
+        exact or there is no prediction this cycle."""
+        predicted = self._predicted_state
+        if predicted is None or self.estimator.params.exact:
+            return None
+        estimated = self.state[:2].copy()
+        disturbance = self.disturbance_mps2.copy()
+        previous_w = self._previous_disturbance
+        if np.allclose(estimated, predicted) and np.allclose(disturbance, previous_w):
+            return None
+        for fraction in (0.5, 0.0):
+            self.state[:2] = predicted + fraction * (estimated - predicted)
+            self.disturbance_mps2 = previous_w + fraction * (disturbance - previous_w)
+            retry = self._state_for_mpc(t_s)
+            try:
+                result = solve(retry)
+            except InfeasibleMpc:
+                continue
+            self.info.dcm_m = retry.dcm_m
+            self.prediction_replans += 1
+            return result
+        self.state[:2] = estimated
+        self.disturbance_mps2 = disturbance
+        return None
 
     def _solve(self, state: MpcState) -> tuple[np.ndarray, MpcPlan | None]:
         """First ZMP velocity to apply, and the new plan (None when a fallback was played)."""

@@ -41,6 +41,10 @@ from .retiming import next_single_support_durations, start_timings
 from .robust_params import RobustParams
 from .step_timing import StaParams, should_adapt, solve_sta
 
+#: How many standard deviations of its sensor noise ŵ may differ from w̃ for an infeasible QP to be
+#: taken as noise rather than a new disturbance (:meth:`RobustIsmpcController._plan_within_noise`).
+NOISE_GATE_SIGMAS = 3.0
+
 
 @dataclass
 class _TimingRecord:
@@ -145,6 +149,7 @@ class RobustIsmpcController(IsmpcController):
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
+        self._noise_checked_t_s: float | None = None
         self.timing = _TimingRecord()
         self._row_weights = zmp_row_weights(self.eta, self.dt, mpc_p.control_horizon_s)
 
@@ -164,6 +169,7 @@ class RobustIsmpcController(IsmpcController):
         self.persistent_disturbance_mps2 = np.zeros(2)
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
+        self._noise_checked_t_s = None
 
     def plan_duration_s(self, run_s: float) -> float:
         """As the nominal controller's, stretched so that the plan still covers the run when every
@@ -418,12 +424,46 @@ class RobustIsmpcController(IsmpcController):
         except InfeasibleMpc:
             if "timing" not in self.modules:
                 raise
+            within_noise = self._plan_within_noise(state)
+            if within_noise is not None:
+                return within_noise
             if self._adapt_timing(state, qp_infeasible=True):
                 return super()._solve_qp(state)
             result = self._retime_next_step(state) if self.plan.step_at(state.t_s) >= 2 else self._retime_start(state)
             if result is None:
                 raise
             return result
+
+    def _plan_within_noise(self, state: MpcState) -> MpcPlan | None:
+        """Walking with noisy sensors, the first time this cycle's QP is infeasible: if what this
+        cycle measured is within what the sensors' noise explains, plan from the state moved
+        towards the model's prediction (:meth:`_solve_towards_prediction`) instead of re-timing.
+
+        Within the noise means both: ŵ is within :data:`NOISE_GATE_SIGMAS` standard deviations of
+        its sensor noise (:attr:`DisturbanceEstimator.noise_std_mps2`) from the w̃ the MPC plans
+        with, and the shifted DCM (estimated state, this cycle's w̃) is within one velocity
+        sample's noise in the DCM, σ_v / η, of the model's prediction with the previous cycle's
+        w̃. A re-timing is a lasting change of the gait: made on noise, steps shortened one cycle
+        after another swing the robot (and pump a load hanging from it). A push moves ŵ away from
+        w̃ at once and is re-timed for as before; with exact signals (σ = 0) nothing changes.
+        Returns the plan, or None (nothing changed) when the measurement is outside the noise,
+        in the initial stance, or when no state towards the prediction is feasible either.
+        """
+        t = state.t_s
+        observer = self.observer
+        if (observer is None or observer.exact or self._noise_checked_t_s == t or self.plan.step_at(t) < 2
+                or self._predicted_state is None):
+            return None
+        self._noise_checked_t_s = t
+        w = self.disturbance_mps2
+        if np.max(np.abs(self.disturbance_estimate_mps2 - w)) > NOISE_GATE_SIGMAS * observer.noise_std_mps2:
+            return None
+        predicted = self._predicted_state
+        new_dcm = (self.state[0] + self.state[1] / self.eta + w / self.eta**2
+                   - predicted[0] - predicted[1] / self.eta - self._previous_disturbance / self.eta**2)
+        if np.max(np.abs(new_dcm)) > self.estimator.params.sensor_vel_noise_mps / self.eta:
+            return None
+        return self._solve_towards_prediction(t, super()._solve_qp)
 
     def _retime_next_step(self, state: MpcState) -> MpcPlan | None:
         """In double support, when the QP is infeasible: re-time the coming single support to the

@@ -36,6 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_discrete_lyapunov
 
 from ..core.lip import discretise
 from ..exceptions import ParameterError
@@ -213,6 +214,45 @@ def disturbance_gain(vel_noise_mps: float, contact_acc_noise_mps2: float, period
     return gain[:, 0]
 
 
+def disturbance_noise_std(vel_noise_mps: float, contact_acc_noise_mps2: float, period_s: float,
+                          time_constant_s: float) -> float:
+    r"""Standard deviation [m/s²] of the estimate ŵ of :class:`DisturbanceEstimator` under a
+    constant disturbance, per axis, from the sensors' white noise alone.
+
+    The filter's error :math:`e = (\dot x_c - \hat{\dot x}_c, w - w_k)` evolves as
+    :math:`e_k = (I - K H)(A e_{k-1} + G \nu_a) - K \epsilon` (:func:`disturbance_gain`), and
+    the low-pass output's error as :math:`l_k = (1 - \alpha) l_{k-1} + \alpha e_{w,k}` with
+    :math:`\alpha = \delta / (\tau + \delta)`; the stationary covariance of this linear system
+    (a discrete Lyapunov equation) gives the value. 0 for exact signals.
+
+    Parameters
+    ----------
+    vel_noise_mps, contact_acc_noise_mps2 : float
+        Noise of the measured CoM velocity [m/s] and contact acceleration [m/s²].
+    period_s : float
+        δ [s].
+    time_constant_s : float
+        τ of the low-pass filter [s].
+    """
+    if vel_noise_mps == 0 and contact_acc_noise_mps2 == 0:
+        return 0.0
+    k_v, k_w = disturbance_gain(vel_noise_mps, contact_acc_noise_mps2, period_s)
+    gain = np.array([[k_v], [k_w]])
+    closed = np.eye(2) - gain @ np.array([[1.0, 0.0]])
+    alpha = period_s / (time_constant_s + period_s)
+    error = closed @ np.array([[1.0, period_s], [0.0, 1.0]])
+    F = np.zeros((3, 3))
+    F[:2, :2] = error
+    F[2, :2] = alpha * error[1]
+    F[2, 2] = 1.0 - alpha
+    G = np.zeros((3, 2))  # inputs: the contact acceleration's noise, the velocity's
+    G[:2, 0] = closed @ np.array([period_s, 0.0])
+    G[:2, 1] = -gain[:, 0]
+    G[2] = alpha * G[1]
+    covariance = solve_discrete_lyapunov(F, G @ np.diag([contact_acc_noise_mps2**2, vel_noise_mps**2]) @ G.T)
+    return float(np.sqrt(covariance[2, 2]))
+
+
 class DisturbanceEstimator:
     r"""The CoM acceleration the contacts do not explain: a Kalman filter on velocity and disturbance.
 
@@ -261,6 +301,10 @@ class DisturbanceEstimator:
         self.time_constant_s = float(time_constant_s)
         self.gain = disturbance_gain(vel_noise_mps, contact_acc_noise_mps2, period_s)
         self.exact = vel_noise_mps == 0 and contact_acc_noise_mps2 == 0
+        #: standard deviation of the estimate from the sensors' noise alone [m/s²]
+        #: (:func:`disturbance_noise_std`)
+        self.noise_std_mps2 = disturbance_noise_std(vel_noise_mps, contact_acc_noise_mps2, period_s,
+                                                    self.time_constant_s)
         self.reset()
 
     def reset(self) -> None:
@@ -313,4 +357,4 @@ class DisturbanceEstimator:
 
 
 __all__ = ["DISTURBANCE_RATE_MPS3", "DisturbanceEstimator", "EstimatorParams", "StateEstimator", "disturbance_gain",
-           "steady_state_gain"]
+           "disturbance_noise_std", "steady_state_gain"]
