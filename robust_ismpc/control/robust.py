@@ -347,7 +347,9 @@ class RobustIsmpcController(IsmpcController):
         and a re-timed step goes back to its nominal touchdown as soon as the shifted DCM is clear
         of that timing's bounds by the trigger's margin (:meth:`_return_to_nominal`): the timing
         follows the DCM, so an estimate that brushes the margin now and then (a noisy velocity, a
-        swinging payload) does not move it ever further from the nominal.
+        swinging payload) does not move it ever further from the nominal. With noisy sensors the
+        margin alone does not re-time while the measurement is within the sensors' noise
+        (:meth:`_within_noise`): then only an infeasible QP does (:meth:`_solve_qp_timed`).
         """
         plan, t = self.plan, state.t_s
         j = plan.step_at(t)
@@ -368,6 +370,8 @@ class RobustIsmpcController(IsmpcController):
             qp_infeasible=qp_infeasible,
         ):
             return False
+        if not qp_infeasible and self._within_noise(state):
+            return False  # the margin brushed by the sensors' noise; an infeasible QP still re-times
         inputs_x, inputs_y, _, _ = self.feasibility_inputs(t, j, state)
         # solve_sta's bounds leave out the swing leg's CoP offset; moving the DCM by the offset's
         # shift instead is the same check (the shift is the current timing's, kept for the new one)
@@ -435,9 +439,23 @@ class RobustIsmpcController(IsmpcController):
             return result
 
     def _plan_within_noise(self, state: MpcState) -> MpcPlan | None:
-        """Walking with noisy sensors, the first time this cycle's QP is infeasible: if what this
-        cycle measured is within what the sensors' noise explains, plan from the state moved
-        towards the model's prediction (:meth:`_solve_towards_prediction`) instead of re-timing.
+        """The first time this cycle's QP is infeasible, walking, with a measurement within the
+        sensors' noise (:meth:`_within_noise`): plan from the state moved towards the model's
+        prediction (:meth:`_solve_towards_prediction`) instead of re-timing. Returns the plan, or
+        None (nothing changed) when the measurement is outside the noise, in the initial stance,
+        or when no state towards the prediction is feasible either.
+        """
+        t = state.t_s
+        if self._noise_checked_t_s == t:  # once per cycle: the retries below call again
+            return None
+        self._noise_checked_t_s = t
+        if not self._within_noise(state):
+            return None
+        return self._solve_towards_prediction(t, super()._solve_qp)
+
+    def _within_noise(self, state: MpcState) -> bool:
+        """True when, walking with noisy sensors, what this cycle measured is within what the
+        sensors' noise explains, so that it does not re-time a step.
 
         Within the noise means both: ŵ is within :data:`NOISE_GATE_SIGMAS` standard deviations of
         its sensor noise (:attr:`DisturbanceEstimator.noise_std_mps2`) from the w̃ the MPC plans
@@ -445,25 +463,20 @@ class RobustIsmpcController(IsmpcController):
         sample's noise in the DCM, σ_v / η, of the model's prediction with the previous cycle's
         w̃. A re-timing is a lasting change of the gait: made on noise, steps shortened one cycle
         after another swing the robot (and pump a load hanging from it). A push moves ŵ away from
-        w̃ at once and is re-timed for as before; with exact signals (σ = 0) nothing changes.
-        Returns the plan, or None (nothing changed) when the measurement is outside the noise,
-        in the initial stance, or when no state towards the prediction is feasible either.
+        w̃ at once and is re-timed for as before. False with exact signals (σ = 0), in the
+        initial stance and without a prediction this cycle.
         """
-        t = state.t_s
         observer = self.observer
-        if (observer is None or observer.exact or self._noise_checked_t_s == t or self.plan.step_at(t) < 2
+        if (observer is None or observer.exact or self.plan.step_at(state.t_s) < 2
                 or self._predicted_state is None):
-            return None
-        self._noise_checked_t_s = t
+            return False
         w = self.disturbance_mps2
         if np.max(np.abs(self.disturbance_estimate_mps2 - w)) > NOISE_GATE_SIGMAS * observer.noise_std_mps2:
-            return None
+            return False
         predicted = self._predicted_state
         new_dcm = (self.state[0] + self.state[1] / self.eta + w / self.eta**2
                    - predicted[0] - predicted[1] / self.eta - self._previous_disturbance / self.eta**2)
-        if np.max(np.abs(new_dcm)) > self.estimator.params.sensor_vel_noise_mps / self.eta:
-            return None
-        return self._solve_towards_prediction(t, super()._solve_qp)
+        return bool(np.max(np.abs(new_dcm)) <= self.estimator.params.sensor_vel_noise_mps / self.eta)
 
     def _retime_next_step(self, state: MpcState) -> MpcPlan | None:
         """In double support, when the QP is infeasible: re-time the coming single support to the
