@@ -93,7 +93,7 @@ class SteppedRun:
 def step_simulation(sim, controller, duration_s: float, recorder=None, stop_on_fall: bool = True) -> SteppedRun:
     """Step ``sim`` with ``controller`` (``step(t_s, measurement) -> GaitReference``) for
     ``duration_s``, one control period at a time, as the product loop does."""
-    from robust_ismpc.sim.robot import distance_outside
+    from robust_ismpc.sim.polygon import distance_outside
 
     period = sim.settings.control_period_s
     rows = {k: [] for k in ("com", "ref", "left", "right", "force", "outside")}

@@ -23,15 +23,8 @@ from robust_ismpc.robots import RobotSpec
 from robust_ismpc.sim.forces import Force, ForceSchedule, Impulse
 from robust_ismpc.sim.loop import LoopSettings, MujocoSimulation
 from robust_ismpc.sim.model import compile_model
-from robust_ismpc.sim.robot import (
-    FallCriteria,
-    MujocoRobot,
-    SolePose,
-    convex_hull,
-    distance_outside,
-    sole_corners,
-    standing_state,
-)
+from robust_ismpc.sim.polygon import SolePose, convex_hull, distance_outside, sole_corners
+from robust_ismpc.sim.robot import FallCriteria, MujocoRobot, standing_state
 from robust_ismpc.sim.scene import Payload, SwingingBall, build_scene
 from robust_ismpc.sim.video import VideoRecorder, VideoSettings
 

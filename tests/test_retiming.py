@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 
 from robust_ismpc.control.modules import MODULES
-from robust_ismpc.control.retiming import next_single_support_durations, start_timings
+from robust_ismpc.control.retiming import first_feasible, next_single_support_durations, start_timings
 from robust_ismpc.control.walk import make_controller, start_walk
 from robust_ismpc.core.params import MpcParams, robot_params
 from robust_ismpc.core.planner import WalkCommand
+from robust_ismpc.exceptions import InfeasibleMpc
 from robust_ismpc.runs.forces import ForceWindow
 from robust_ismpc.runs.lip import run_lip
 
@@ -20,6 +21,37 @@ def _g1_start(t_s=0.05, on_midpoint=True):
     """G1's planned start: first single support 2.1-2.6 s, shortest single support 0.25 s."""
     return start_timings(t_s, 2.1, 2.6, 0.5, 0.25, G1.T_ds_s, G1.T_step_s, DT, on_midpoint=on_midpoint,
                          latest_touchdown_s=2.6 + G1.T_step_s)
+
+
+def _timed_solver(feasible_timings):
+    """A plan's timing, and a QP that is feasible only for the timings given."""
+    timing = {"now": 0.5}
+
+    def solve():
+        if timing["now"] not in feasible_timings:
+            raise InfeasibleMpc("infeasible")
+        return f"plan at {timing['now']}"
+
+    return timing, solve
+
+
+def test_first_feasible_keeps_the_first_timing_whose_qp_solves():
+    timing, solve = _timed_solver({0.4, 0.3})
+    found = first_feasible([0.45, 0.4, 0.3], lambda t: timing.update(now=t), solve, lambda: timing.update(now=0.5))
+    assert found == (0.4, "plan at 0.4") and timing["now"] == 0.4
+
+
+def test_first_feasible_puts_the_timing_back_when_none_solves_or_the_solver_fails():
+    timing, solve = _timed_solver(set())
+    assert first_feasible([0.45, 0.4], lambda t: timing.update(now=t), solve, lambda: timing.update(now=0.5)) is None
+    assert timing["now"] == 0.5
+
+    def broken():
+        raise ValueError("solver crashed")
+
+    with pytest.raises(ValueError):
+        first_feasible([0.45], lambda t: timing.update(now=t), broken, lambda: timing.update(now=0.5))
+    assert timing["now"] == 0.5
 
 
 def test_next_single_support_durations_nearest_first_within_limits():

@@ -3,20 +3,27 @@
 The analytical feasibility bounds of the step timing adaptation hold in single support only
 (:mod:`robust_ismpc.control.step_timing`). In double support the QP itself is the test: the
 controller tries the timings listed here, in order, and keeps the first for which the QP is
-feasible (:meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_next_step` and
-:meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_start`). These functions only
-list the candidates; they solve nothing.
+feasible (:func:`first_feasible`, called by
+:meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_next_step` and
+:meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_start`).
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
-__all__ = ["DS_RETIMING_FRACTIONS", "START_RETIMING_TRIES", "StartTiming", "next_single_support_durations",
-           "start_timings"]
+from ..exceptions import InfeasibleMpc
+
+__all__ = ["DS_RETIMING_FRACTIONS", "START_RETIMING_TRIES", "StartTiming", "first_feasible",
+           "next_single_support_durations", "start_timings"]
+
+Timing = TypeVar("Timing")
+Plan = TypeVar("Plan")
 
 #: Durations of the coming single support, as fractions of its nominal one, tried in double
 #: support (within :meth:`~robust_ismpc.control.step_timing.StaParams.ss_limits`).
@@ -120,3 +127,27 @@ def start_timings(t_s: float, start_s: float, touchdown_s: float, nominal_T_ss_s
             break
         timings.append(StartTiming(float(start), float(start + T_ss_min_s)))
     return timings
+
+
+
+def first_feasible(timings: Iterable[Timing], apply: Callable[[Timing], object], solve: Callable[[], Plan],
+                   undo: Callable[[], object]) -> tuple[Timing, Plan] | None:
+    """The first of ``timings`` for which the QP is feasible, with its solution.
+
+    Each timing is applied to the plan (``apply``) and the QP solved (``solve``); a timing whose
+    QP raises :class:`~robust_ismpc.exceptions.InfeasibleMpc` is passed over. When none is
+    feasible, ``undo`` puts the plan's timing back and None is returned; ``undo`` also runs
+    before any other exception of ``solve`` propagates.
+    """
+    for timing in timings:
+        apply(timing)
+        try:
+            result = solve()
+        except InfeasibleMpc:
+            continue
+        except BaseException:
+            undo()
+            raise
+        return timing, result
+    undo()
+    return None

@@ -20,14 +20,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
-from ..core.feasibility import AxisFeasibilityInputs, feasibility_bounds_at_axes, zmp_row_weights
+from ..core.feasibility import feasibility_bounds_at_axes, zmp_row_weights
 from ..core.mpc import MpcPlan, MpcState
 from ..core.params import MpcParams, RobotParams
-from ..core.planner import kinematic_bounds, rotation
 from ..core.qp import QpSolver
 from ..core.reference import Measurement
 from ..core.restriction import checked_restriction_rate, max_tolerable_deviation, restriction_profile
@@ -37,45 +37,13 @@ from ..estimation.governor import interval_unchecked, target_unchecked
 from ..exceptions import InfeasibleMpc
 from .controller import IsmpcController
 from .modules import MODULES, check_modules
-from .retiming import next_single_support_durations, start_timings
+from .retiming import first_feasible, next_single_support_durations, start_timings
 from .robust_params import RobustParams
-from .step_timing import StaParams, should_adapt, solve_sta
+from .step_timing import StaParams, TimingRecord, should_adapt, solve_sta, support_feasibility_inputs
 
 #: How many standard deviations of its sensor noise ŵ may differ from w̃ for an infeasible QP to be
 #: taken as noise rather than a new disturbance (:meth:`RobustIsmpcController._plan_within_noise`).
 NOISE_GATE_SIGMAS = 3.0
-
-
-@dataclass
-class _TimingRecord:
-    """What the step timing adaptation did. An adaptation is a change of one step's timing: the
-    current single support's touchdown (in single support), the coming single support's
-    duration (in double support, :meth:`RobustIsmpcController._retime_next_step`) or the first
-    touchdown (in the initial stance, :meth:`RobustIsmpcController._retime_start`); its time to
-    step is the time from now to the touchdown it set. A re-timed step's return to its nominal
-    touchdown is counted apart (``returns``)."""
-
-    adaptations: int = 0
-    returns: int = 0  # re-timed touchdowns moved back to their nominal one
-    min_time_to_step_s: float = math.inf
-    adapted_this_cycle: bool = False
-    time_to_step_s: float = math.nan  # of this cycle's last adaptation (NaN: none)
-    bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
-
-    def new_cycle(self) -> None:
-        self.adapted_this_cycle = False
-        self.time_to_step_s = math.nan
-
-    def record(self, time_to_touchdown_s: float) -> None:
-        """Count one re-timing this cycle, with the time left to the re-timed touchdown [s]."""
-        self.adaptations += 1
-        self.adapted_this_cycle = True
-        self.time_to_step_s = float(time_to_touchdown_s)
-        self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
-
-    def record_return(self) -> None:
-        """Count one re-timed touchdown moved back to its nominal one (not an adaptation)."""
-        self.returns += 1
 
 
 class RobustIsmpcController(IsmpcController):
@@ -150,7 +118,7 @@ class RobustIsmpcController(IsmpcController):
         self.fresh_disturbance_mps2 = np.zeros(2)
         self.disturbance_retries = 0
         self._noise_checked_t_s: float | None = None
-        self.timing = _TimingRecord()
+        self.timing = TimingRecord()
         self._row_weights = zmp_row_weights(self.eta, self.dt, mpc_p.control_horizon_s)
 
     # ------------------------------------------------------------------------------------
@@ -159,7 +127,7 @@ class RobustIsmpcController(IsmpcController):
         self.nominal_T_ss_s = plan.T_ss_s.copy()
         # the first touchdown is delayed by at most one step (plan_duration_s covers it)
         self._latest_first_touchdown_s = float(plan.touchdown_s[2]) + self.robot.T_step_s
-        self.timing = _TimingRecord()
+        self.timing = TimingRecord()
         self._bounds_cache = None
         self._bounds_now = None
         if self.observer is not None:
@@ -249,55 +217,14 @@ class RobustIsmpcController(IsmpcController):
 
     # ------------------------------------------------------------------------------------
     def feasibility_inputs(self, t_s: float, j: int, state: MpcState, zmp_m: np.ndarray | None = None):
-        """Per-axis feasibility inputs in the frame of the current support footstep j-1.
-
-        ``zmp_m`` overrides the ZMP of ``state`` (world frame) when given. As in the QP, the
-        landing footstep j can move within the kinematic box except in the last
-        ``footstep_freeze_s`` before touchdown (held where the QP froze it), and with
-        ``fix_footsteps`` no footstep moves from its candidate.
-
-        Returns
-        -------
-        inputs_x, inputs_y : AxisFeasibilityInputs
-        rotation_m : ndarray, shape (2, 2)
-            Support-frame axes in the world (local = Rᵀ (world - origin)).
-        origin_m : ndarray, shape (2,)
-            Support footstep position [m].
-        """
-        plan, robot, mpc = self.plan, self.robot, self.mpc_params
-        origin = plan.pos_m[j - 1]
-        R = rotation(plan.yaw_rad[j - 1])
-        td = plan.touchdown_s
-        n = max(1, int(np.count_nonzero(td[j:] < t_s + mpc.preview_horizon_s - 1e-9)))
-        idx = np.arange(j, min(j + n, plan.n_footsteps))
-        targets = plan.candidate_pos_m[idx].copy()
-        frozen = self._landing_footstep_frozen(t_s, j)
-        if frozen:  # the QP holds the landing footstep where it last put it
-            targets[0] = plan.pos_m[j]
-        candidates = (targets - origin) @ R  # rows Rᵀ(p - origin)
-        nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
-        sides = plan.side[idx].astype(float)
-        zmp_local = R.T @ ((state.zmp_m if zmp_m is None else zmp_m) - origin)
-        periods = np.diff(td[idx])
-        common = dict(
-            support_pos_m=0.0, restriction_rate_mps=self.restriction_rate_mps, T_ds_s=float(plan.T_ds_s[j]),
-            step_periods_s=periods, eta=self.eta, sampling_period_s=self.dt,
-            control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
+        """Per-axis feasibility inputs in the frame of the current support footstep j-1
+        (:func:`~robust_ismpc.control.step_timing.support_feasibility_inputs`); ``zmp_m`` overrides
+        the ZMP of ``state`` (world frame) when given."""
+        return support_feasibility_inputs(
+            self.plan, self.robot, self.mpc_params, t_s, j, state.zmp_m if zmp_m is None else zmp_m,
+            frozen=self._landing_footstep_frozen(t_s, j), restriction_rate_mps=self.restriction_rate_mps,
+            eta=self.eta, sampling_period_s=self.dt,
         )
-        lo, hi = kinematic_bounds(robot, sides)
-        if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
-            lo, hi = nominal.copy(), nominal.copy()
-        elif frozen:
-            lo[0] = hi[0] = nominal[0]
-        inputs_x = AxisFeasibilityInputs(
-            zmp_pos_m=float(zmp_local[0]), zmp_half_width_m=0.5 * robot.zmp_box_x_m,
-            disp_lo_m=lo[:, 0], disp_hi_m=hi[:, 0], disp_nominal_m=nominal[:, 0], **common,
-        )
-        inputs_y = AxisFeasibilityInputs(
-            zmp_pos_m=float(zmp_local[1]), zmp_half_width_m=0.5 * robot.zmp_box_y_m,
-            disp_lo_m=lo[:, 1], disp_hi_m=hi[:, 1], disp_nominal_m=nominal[:, 1], **common,
-        )
-        return inputs_x, inputs_y, R, origin
 
     def _landing_footstep_frozen(self, t_s: float, j: int) -> bool:
         """True once the QP holds footstep j fixed (the last ``footstep_freeze_s`` before touchdown)."""
@@ -498,21 +425,15 @@ class RobustIsmpcController(IsmpcController):
         nominal = float(self.nominal_T_ss_s[k])
         durations = next_single_support_durations(nominal, current, self.sta_params.ss_limits(nominal), self.dt)
         start = float(plan.ss_start_s[k])
-        for duration in durations:
-            plan.retime_touchdown(k, start + duration)
-            try:
-                result = super()._solve_qp(state)
-            except InfeasibleMpc:
-                continue
-            except BaseException:
-                plan.retime_touchdown(k, start + current)
-                raise
-            self.timing.record(start + duration - t)
-            self._log.warning("sta", t, f"next single support re-timed in double support: {duration:.2f} s "
-                                        f"(was {current:.2f} s)")
-            return result
-        plan.retime_touchdown(k, start + current)
-        return None
+        found = first_feasible(durations, lambda duration: plan.retime_touchdown(k, start + duration),
+                               partial(super()._solve_qp, state), lambda: plan.retime_touchdown(k, start + current))
+        if found is None:
+            return None
+        duration, result = found
+        self.timing.record(start + duration - t)
+        self._log.warning("sta", t, f"next single support re-timed in double support: {duration:.2f} s "
+                                    f"(was {current:.2f} s)")
+        return result
 
     def _retime_start(self, state: MpcState) -> MpcPlan | None:
         """In the initial stance, when the QP is infeasible: re-time the first step to the first
@@ -541,23 +462,20 @@ class RobustIsmpcController(IsmpcController):
         def restore() -> None:
             plan.T_ss_s[:], plan.T_ds_s[:], plan.ss_start_s[:] = saved
 
-        for timing in timings:
+        def apply(timing) -> None:
+            restore()
             if abs(timing.start_s - float(saved[2][2])) > 1e-9:
                 plan.retime_start(t, timing.start_s)
             plan.retime_touchdown(2, timing.touchdown_s)
-            try:
-                result = super()._solve_qp(state)
-            except InfeasibleMpc:
-                restore()
-                continue
-            except BaseException:
-                restore()
-                raise
-            self.timing.record(timing.touchdown_s - t)
-            self._log.warning("sta", t, f"first step re-timed: touchdown at {timing.touchdown_s:.2f} s "
-                                        f"(was {current:.2f} s), single support from {timing.start_s:.2f} s")
-            return result
-        return None
+
+        found = first_feasible(timings, apply, partial(super()._solve_qp, state), restore)
+        if found is None:
+            return None
+        timing, result = found
+        self.timing.record(timing.touchdown_s - t)
+        self._log.warning("sta", t, f"first step re-timed: touchdown at {timing.touchdown_s:.2f} s "
+                                    f"(was {current:.2f} s), single support from {timing.start_s:.2f} s")
+        return result
 
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         """Solve, adapting the timing if infeasible; if still infeasible, retry with w̃ moved

@@ -23,7 +23,7 @@ The adapted touchdown is then rounded to the δ grid and re-checked against the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -33,9 +33,13 @@ from ..core.feasibility import (
     affine_inner_estimate,
     feasibility_bounds_at_axes,
 )
+from ..core.footsteps import FootstepPlan
+from ..core.params import MpcParams, RobotParams
+from ..core.planner import kinematic_bounds, rotation
 from ..exceptions import ParameterError
 
-__all__ = ["StaParams", "StaResult", "timing_interval", "solve_sta_qp", "solve_sta", "should_adapt"]
+__all__ = ["StaParams", "StaResult", "TimingRecord", "timing_interval", "solve_sta_qp", "solve_sta", "should_adapt",
+           "support_feasibility_inputs"]
 
 
 @dataclass(frozen=True)
@@ -360,3 +364,117 @@ def should_adapt(
     near_x = x > bounds_x_m[1] - margin_m or x < bounds_x_m[0] + margin_m
     near_y = y > bounds_y_m[1] - margin_m or y < bounds_y_m[0] + margin_m
     return near_x or near_y
+
+
+def support_feasibility_inputs(
+    plan: FootstepPlan,
+    robot: RobotParams,
+    mpc: MpcParams,
+    t_s: float,
+    j: int,
+    zmp_m: np.ndarray,
+    *,
+    frozen: bool,
+    restriction_rate_mps: float,
+    eta: float,
+    sampling_period_s: float,
+) -> tuple[AxisFeasibilityInputs, AxisFeasibilityInputs, np.ndarray, np.ndarray]:
+    """Per-axis feasibility inputs of step ``j`` at ``t_s``, in the frame of its support footstep
+    j-1.
+
+    As in the IS-MPC QP, the landing footstep j can move within the kinematic box unless it is
+    ``frozen`` (held at its planned position, the last ``footstep_freeze_s`` before touchdown),
+    and with ``mpc.fix_footsteps`` no footstep moves from its candidate.
+
+    Parameters
+    ----------
+    plan : FootstepPlan
+    robot : RobotParams
+    mpc : MpcParams
+    t_s : float
+        Now [s].
+    j : int
+        Current step (its single support is the one checked).
+    zmp_m : ndarray, shape (2,)
+        Current ZMP, world frame [m].
+    frozen : bool
+        The landing footstep j is held where the QP last put it.
+    restriction_rate_mps : float
+        ZMP restriction rate r [m/s] (0 without the restriction).
+    eta : float
+        LIP natural frequency η [1/s].
+    sampling_period_s : float
+        MPC sampling period δ [s].
+
+    Returns
+    -------
+    inputs_x, inputs_y : AxisFeasibilityInputs
+    rotation_m : ndarray, shape (2, 2)
+        Support-frame axes in the world (local = Rᵀ (world - origin)).
+    origin_m : ndarray, shape (2,)
+        Support footstep position [m].
+    """
+    origin = plan.pos_m[j - 1]
+    R = rotation(plan.yaw_rad[j - 1])
+    td = plan.touchdown_s
+    n = max(1, int(np.count_nonzero(td[j:] < t_s + mpc.preview_horizon_s - 1e-9)))
+    idx = np.arange(j, min(j + n, plan.n_footsteps))
+    targets = plan.candidate_pos_m[idx].copy()
+    if frozen:  # the QP holds the landing footstep where it last put it
+        targets[0] = plan.pos_m[j]
+    candidates = (targets - origin) @ R  # rows Rᵀ(p - origin)
+    nominal = np.diff(np.vstack([np.zeros(2), candidates]), axis=0)
+    sides = plan.side[idx].astype(float)
+    zmp_local = R.T @ (zmp_m - origin)
+    periods = np.diff(td[idx])
+    common = dict(
+        support_pos_m=0.0, restriction_rate_mps=restriction_rate_mps, T_ds_s=float(plan.T_ds_s[j]),
+        step_periods_s=periods, eta=eta, sampling_period_s=sampling_period_s,
+        control_horizon_s=mpc.control_horizon_s, preview_horizon_s=mpc.preview_horizon_s,
+    )
+    lo, hi = kinematic_bounds(robot, sides)
+    if mpc.fix_footsteps:  # no footstep is a decision: each stays at its nominal displacement
+        lo, hi = nominal.copy(), nominal.copy()
+    elif frozen:
+        lo[0] = hi[0] = nominal[0]
+    inputs_x = AxisFeasibilityInputs(
+        zmp_pos_m=float(zmp_local[0]), zmp_half_width_m=0.5 * robot.zmp_box_x_m,
+        disp_lo_m=lo[:, 0], disp_hi_m=hi[:, 0], disp_nominal_m=nominal[:, 0], **common,
+    )
+    inputs_y = AxisFeasibilityInputs(
+        zmp_pos_m=float(zmp_local[1]), zmp_half_width_m=0.5 * robot.zmp_box_y_m,
+        disp_lo_m=lo[:, 1], disp_hi_m=hi[:, 1], disp_nominal_m=nominal[:, 1], **common,
+    )
+    return inputs_x, inputs_y, R, origin
+
+
+@dataclass
+class TimingRecord:
+    """What the step timing adaptation did. An adaptation is a change of one step's timing: the
+    current single support's touchdown (in single support), the coming single support's
+    duration (in double support, :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_next_step`) or the first
+    touchdown (in the initial stance, :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_start`); its time to
+    step is the time from now to the touchdown it set. A re-timed step's return to its nominal
+    touchdown is counted apart (``returns``)."""
+
+    adaptations: int = 0
+    returns: int = 0  # re-timed touchdowns moved back to their nominal one
+    min_time_to_step_s: float = math.inf
+    adapted_this_cycle: bool = False
+    time_to_step_s: float = math.nan  # of this cycle's last adaptation (NaN: none)
+    bounds_world_m: np.ndarray = field(default_factory=lambda: np.full(4, np.nan))
+
+    def new_cycle(self) -> None:
+        self.adapted_this_cycle = False
+        self.time_to_step_s = math.nan
+
+    def record(self, time_to_touchdown_s: float) -> None:
+        """Count one re-timing this cycle, with the time left to the re-timed touchdown [s]."""
+        self.adaptations += 1
+        self.adapted_this_cycle = True
+        self.time_to_step_s = float(time_to_touchdown_s)
+        self.min_time_to_step_s = min(self.min_time_to_step_s, time_to_touchdown_s)
+
+    def record_return(self) -> None:
+        """Count one re-timed touchdown moved back to its nominal one (not an adaptation)."""
+        self.returns += 1

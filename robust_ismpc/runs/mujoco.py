@@ -42,7 +42,8 @@ from ..sim.forces import Force
 from ..sim.instability import simulation_failure
 from ..sim.loop import LoopSettings, MujocoSimulation, initial_state
 from ..sim.model import load_robot
-from ..sim.robot import FallCriteria, distance_outside
+from ..sim.polygon import distance_outside
+from ..sim.robot import FallCriteria
 from ..sim.scene import SceneMonitor, scene_forces
 from ..sim.video import open_frame_sink
 from ..sim.whole_body.ik import IkSettings

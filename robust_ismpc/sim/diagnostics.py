@@ -23,7 +23,7 @@ import math
 import mujoco
 import numpy as np
 
-from .robot import distance_outside
+from .polygon import distance_outside
 
 #: A self-contact counts once its normal force exceeds this fraction of the robot's weight.
 SELF_CONTACT_WEIGHT_FRACTION = 0.01

@@ -42,7 +42,8 @@ from ..robots.spec import RobotSpec
 from .forces import Disturbance, ForceSchedule
 from .mismatch import apply_mismatch
 from .model import compile_model
-from .robot import SIDES, ContactState, FallCriteria, MujocoRobot, SolePose, standing_state
+from .polygon import SolePose
+from .robot import SIDES, ContactState, FallCriteria, MujocoRobot, standing_state
 from .scene import SceneItem, build_scene, set_scene_initial_state
 from .state_estimation import SensedState
 from .video import VideoRecorder

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..exceptions import ModelError
 from .model import floor_geoms
-from .robot import convex_hull
+from .polygon import convex_hull
 
 #: Sole points: geometry within this distance of the foot's lowest point along its −z [m].
 SOLE_TOLERANCE_M = 0.006

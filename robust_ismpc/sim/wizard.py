@@ -39,7 +39,7 @@ from ..exceptions import ModelError, ParameterError
 from ..robots.spec import scaled_gait_defaults
 from .model import _compile_model, has_floor
 from .model_checks import drafted_physics_step, implausible_inertias
-from .robot import convex_hull
+from .polygon import convex_hull
 from .soles import SOLE_TOLERANCE_M, find_feet, foot_geometry, sole, sole_rotation
 from .whole_body.ik import IkSettings
 
