@@ -2,7 +2,8 @@
 
 Usage:
     python benchmarks/persistent_force.py ROBOT [--sim lip|mujoco] [--controllers nominal,robust]
-        [--directions 0,45,...] [--cases stand_t0,...] [--json OUT.json]
+        [--directions 0,45,...] [--cases stand_t0,...] [--sensing ideal|realistic] [--seed N]
+        [--json OUT.json]
 
 For each controller and direction (0 = forward, 90 = left), bisection on the force magnitude
 [N] to a resolution of 0.25 % of the robot's weight, for these cases:
@@ -16,6 +17,8 @@ For each controller and direction (0 = forward, 90 = left), bisection on the for
 
 A run holds the force if it reaches its end without a fall, a persistent infeasible QP or a
 diverged CoM (``summary["fell"]``). Prints one markdown row per controller and direction.
+Under ``--sensing realistic`` every run draws its sensors' noise and bias from ``--seed``: one
+trial per magnitude, so the frontier is that seed's.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import math
 
 from robust_ismpc.control.modules import MODULES
 from robust_ismpc.core.planner import WalkCommand
+from robust_ismpc.robots.sensing import SENSING_PRESETS
 from robust_ismpc.runs.forces import ramped_force
 from robust_ismpc.runs.run import run
 from robust_ismpc.runs.spec import RunSpec, gait_params
@@ -36,11 +40,11 @@ CASES = ("stand_t0", "stand_ramp_t0", "walk_t0", "walk_ramp_t0", "walk_on", "wal
 
 
 def holds(robot: str, sim: str, modules, vx: float, force_n: float, direction_deg: float, start_s: float,
-          ramp_s: float, duration_s: float) -> bool:
+          ramp_s: float, duration_s: float, sensing: str = "ideal", seed: int = 0) -> bool:
     c, s = math.cos(math.radians(direction_deg)), math.sin(math.radians(direction_deg))
     forces = ramped_force(force_n * c, force_n * s, start_s, ramp_s) if force_n > 0 else ()
     spec = RunSpec(robot=robot, sim=sim, modules=tuple(modules), command=WalkCommand(vx), duration_s=duration_s,
-                   forces=forces)
+                   forces=forces, sensing=sensing, seed=seed)
     return not run(spec).summary["fell"]
 
 
@@ -55,7 +59,8 @@ def largest(resolution_n: float, upper_n: float, survives) -> float:
     return lo
 
 
-def frontier(robot: str, sim: str, modules, direction_deg: float, cases) -> dict:
+def frontier(robot: str, sim: str, modules, direction_deg: float, cases, sensing: str = "ideal",
+             seed: int = 0) -> dict:
     params = gait_params(robot, sim)
     weight_n = params.mass_kg * 9.81
     resolution, upper = 0.0025 * weight_n, 0.25 * weight_n
@@ -64,7 +69,7 @@ def frontier(robot: str, sim: str, modules, direction_deg: float, cases) -> dict
 
     def case(speed, start, ramp, duration):
         return largest(resolution, upper, lambda f: holds(robot, sim, modules, speed, f, direction_deg, start,
-                                                           ramp, duration))
+                                                           ramp, duration, sensing, seed))
 
     row: dict = {}
     if "stand_t0" in cases:
@@ -89,6 +94,9 @@ def main() -> None:
     parser.add_argument("--controllers", default="nominal,robust")
     parser.add_argument("--directions", default="0,45,90,135,180,225,270,315")
     parser.add_argument("--cases", default=",".join(CASES))
+    parser.add_argument("--sensing", default="ideal", choices=sorted(SENSING_PRESETS),
+                        help="what the controller reads (default ideal)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sensors' noise and bias (0)")
     parser.add_argument("--json", default=None, help="also write the frontiers here")
     args = parser.parse_args()
     logging.disable(logging.WARNING)
@@ -102,14 +110,15 @@ def main() -> None:
     for controller in args.controllers.split(","):
         modules = MODULES if controller == "robust" else ()
         for direction in (float(d) for d in args.directions.split(",")):
-            row = frontier(args.robot, args.sim, modules, direction, cases)
+            row = frontier(args.robot, args.sim, modules, direction, cases, args.sensing, args.seed)
             results.setdefault(controller, {})[f"{direction:g}"] = row
             cells = [" / ".join(f"{v:.1f}" for v in row[c]) if isinstance(row[c], list) else f"{row[c]:.1f}"
                      for c in cases]
             print(f"| {controller} | {direction:g} | " + " | ".join(cells) + " |", flush=True)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"robot": args.robot, "sim": args.sim, "frontiers_n": results}, f, indent=1)
+            json.dump({"robot": args.robot, "sim": args.sim, "sensing": args.sensing, "seed": args.seed,
+                       "frontiers_n": results}, f, indent=1)
 
 
 if __name__ == "__main__":

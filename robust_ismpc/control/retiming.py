@@ -129,7 +129,6 @@ def start_timings(t_s: float, start_s: float, touchdown_s: float, nominal_T_ss_s
     return timings
 
 
-
 def first_feasible(timings: Iterable[Timing], apply: Callable[[Timing], object], solve: Callable[[], Plan],
                    undo: Callable[[], object]) -> tuple[Timing, Plan] | None:
     """The first of ``timings`` for which the QP is feasible, with its solution.

@@ -18,6 +18,10 @@ Being scalar it is solved in closed form: with σ eliminated
 pieces are delimited by at most six points; each piece is minimised analytically. When the hard
 constraints (σ = 0) are satisfiable the result is the projection of Δλ_nom on their interval.
 The adapted touchdown is then rounded to the δ grid and re-checked against the exact bounds.
+
+The module also builds the feasibility check's inputs in the support foot's frame
+(:func:`support_feasibility_inputs`) and keeps the record of what the adaptation did
+(:class:`TimingRecord`).
 """
 
 from __future__ import annotations
