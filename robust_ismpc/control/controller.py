@@ -227,8 +227,14 @@ class IsmpcController:
 
     def _state_for_mpc(self, t_s: float) -> MpcState:
         """The MPC's initial state from the model state and the disturbance in use."""
-        dcm = self.state[0] + self.state[1] / self.eta + self.disturbance_mps2 / self.eta**2
+        dcm = self._shifted_dcm(self.state[0], self.state[1], self.disturbance_mps2)
         return MpcState(t_s=t_s, dcm_m=dcm, zmp_m=self.state[2].copy())
+
+    def _shifted_dcm(self, com_pos_m: np.ndarray, com_vel_mps: np.ndarray,
+                     disturbance_mps2: np.ndarray) -> np.ndarray:
+        """The shifted DCM x̄_u = c + ċ/η + w/η² [m], shape (2,), of a CoM position [m], velocity
+        [m/s] and disturbance [m/s²], each shape (2,)."""
+        return com_pos_m + com_vel_mps / self.eta + disturbance_mps2 / self.eta**2
 
     def _solve_qp(self, state: MpcState) -> MpcPlan:
         """Solve this cycle's QP (subclasses may retry, e.g. after adapting the step timing)."""

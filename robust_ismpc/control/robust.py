@@ -401,8 +401,8 @@ class RobustIsmpcController(IsmpcController):
         if np.max(np.abs(self.disturbance_estimate_mps2 - w)) > NOISE_GATE_SIGMAS * observer.noise_std_mps2:
             return False
         predicted = self._predicted_state
-        new_dcm = (self.state[0] + self.state[1] / self.eta + w / self.eta**2
-                   - predicted[0] - predicted[1] / self.eta - self._previous_disturbance / self.eta**2)
+        new_dcm = (self._shifted_dcm(self.state[0], self.state[1], w)
+                   - self._shifted_dcm(predicted[0], predicted[1], self._previous_disturbance))
         return bool(np.max(np.abs(new_dcm)) <= self.estimator.params.sensor_vel_noise_mps / self.eta)
 
     def _retime_next_step(self, state: MpcState) -> MpcPlan | None:

@@ -456,9 +456,11 @@ def support_feasibility_inputs(
 class TimingRecord:
     """What the step timing adaptation did. An adaptation is a change of one step's timing: the
     current single support's touchdown (in single support), the coming single support's
-    duration (in double support, :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_next_step`) or the first
-    touchdown (in the initial stance, :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_start`); its time to
-    step is the time from now to the touchdown it set. A re-timed step's return to its nominal
+    duration (in double support,
+    :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_next_step`) or the first
+    touchdown (in the initial stance,
+    :meth:`~robust_ismpc.control.robust.RobustIsmpcController._retime_start`); its time to step
+    is the time from now to the touchdown it set. A re-timed step's return to its nominal
     touchdown is counted apart (``returns``)."""
 
     adaptations: int = 0
