@@ -71,6 +71,40 @@ def test_masses_scale_with_robot_mass() -> None:
     assert ball["ball"]["mass_kg"] == pytest.approx(0.265 * ball["robot_mass_kg"] / 5.4, rel=1e-3)
 
 
+def test_the_load_factor_scales_the_scenarios_own_disturbances_only() -> None:
+    """load_factor multiplies the bag's and the ball's masses (the ball's speed and hit kept) and
+    the scenario's forces, not the forces a user adds; it must be a finite number > 0."""
+    from robust_ismpc.runs.forces import ForceWindow
+
+    for name, key in (("paper-bag", "bag"), ("paper-ball", "ball")):
+        base, heavy = realise(name, seed=3).details, realise(name, seed=3, load_factor=2.5).details
+        assert heavy[key]["mass_kg"] == pytest.approx(2.5 * base[key]["mass_kg"], rel=1e-3)  # both rounded to 0.1 g
+        assert heavy["load_factor"] == 2.5 and base["load_factor"] == 1.0
+    ball, heavy_ball = realise("paper-ball", seed=3).details["ball"], realise("paper-ball", seed=3, load_factor=2.5).details["ball"]
+    assert heavy_ball["hit_s"] == ball["hit_s"] and heavy_ball["expected_impact_speed_mps"] == ball["expected_impact_speed_mps"]
+    extra = ForceWindow(5.0, 0.0, 1.0, 1.1)
+    base = realise("paper-push", seed=2, extra_forces=(extra,)).nominal.forces
+    half = realise("paper-push", seed=2, extra_forces=(extra,), load_factor=0.5).nominal.forces
+    for own, scaled in zip(base[:-1], half[:-1]):
+        assert (scaled.fx_n, scaled.fy_n) == pytest.approx((0.5 * own.fx_n, 0.5 * own.fy_n))
+        assert (scaled.t_start_s, scaled.t_end_s) == (own.t_start_s, own.t_end_s)
+    assert half[-1] == base[-1] == extra
+    for bad in (0.0, -1.0, math.inf, math.nan, "2"):
+        with pytest.raises(ParameterError, match="load_factor"):
+            realise("paper-push", load_factor=bad)
+
+
+def test_compare_refuses_a_bad_load_factor_before_it_writes(tmp_path, capsys) -> None:
+    """``--load-factor`` needs a scenario and a finite number > 0; refused with exit status 2 and no
+    output folder."""
+    for argv in (["compare", "paper-ball", "--load-factor", "0"], ["compare", "paper-ball", "--load-factor", "nan"],
+                 ["compare", "--load-factor", "2"]):
+        out = tmp_path / "x"
+        assert main([*argv, "--out", str(out)]) == 2
+        assert not out.exists()
+    assert "load" in capsys.readouterr().err
+
+
 def test_push_forces_keep_the_papers_dimensionless_load() -> None:
     """paper-push's forces load G1 as the paper's loaded HRP-4: F h / (m g l) (l the half sole) is
     the paper's 45 N and 85 N on HRP-4 in DART (40.05 kg, CoM 0.71 m, sole 0.25 m), and the

@@ -203,6 +203,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run_arguments(p_cmp, with_controller=False)
     p_cmp.add_argument("--robust-modules", default=None,
                        help="modules of the robust run (default: all three, or the scenario's)")
+    p_cmp.add_argument("--load-factor", type=float, default=None,
+                       help="with a scenario: its own disturbances (the bag's or the ball's mass, its forces) times "
+                       "this, > 0 (default 1); benchmarks/scenario_frontier.py finds where each controller's limit is")
     # Defaults resolved in cmd_compare, so that a scenario can tell "not given" from a value.
     p_cmp.set_defaults(sim=None, robot=None, vx=None, vy=None, omega=None, duration=None)
 

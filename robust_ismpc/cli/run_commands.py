@@ -57,6 +57,7 @@ def _compare_scenario(args) -> int:
     """``ismpc compare NAME``: both controllers on one seed of a named scenario."""
     from ..control.modules import parse_modules
     from ..experiments.scenarios import disturbance_events, get_scenario, on_robot, run_scenario
+    from ..experiments.scenarios.realise import check_load_factor
     from ..io import atomic_write_json
     from ..plotting import plot_comparison
     from ..robots.mismatch import parse_mismatch
@@ -84,16 +85,19 @@ def _compare_scenario(args) -> int:
     from .inputs import check_forces_in_run
 
     check_forces_in_run(forces, scenario.duration_s)
+    load_factor = 1.0 if args.load_factor is None else check_load_factor(args.load_factor)
+    # the name the titles and the last line give the run: the scenario, scaled when it is
+    name = scenario.name if load_factor == 1.0 else f"{scenario.name} x{load_factor:g}"
     out = _open_out(args)
     labels = {"nominal": "nominal", "robust": _robust_label(scenario.robust_modules)}
     result = run_scenario(scenario, seed=args.seed, extra_forces=tuple(w for _, _, w in forces),
                           progress=lambda label: _progress(args, labels.get(label, label)),
                           video_dir=out if args.video else None, whole_body=args.whole_body,
-                          sensing=args.sensing, mismatch=parse_mismatch(args.mismatch))
+                          sensing=args.sensing, mismatch=parse_mismatch(args.mismatch), load_factor=load_factor)
     for label, run_result in result.results.items():
         (out / label).mkdir(exist_ok=True)
         _end_progress(args)
-        _write_run(run_result, out / label, title=f"{scenario.name} seed {args.seed}: {labels[label]}")
+        _write_run(run_result, out / label, title=f"{name} seed {args.seed}: {labels[label]}")
         print(_one_line(run_result.summary, labels[label]))
     if args.interrupts.requested:
         return _interrupted(args, f"the runs' finished parts were written to {out}; no comparison")
@@ -103,10 +107,10 @@ def _compare_scenario(args) -> int:
     names = [f"{label} ({'+'.join(r.summary['modules']) or 'IS-MPC'})" for label, r in result.results.items()]
     held = "held" if comparison["expected_outcome"] else "not held"
     plot_comparison(traces, names, out / "comparison.png",
-                    title=f"{scenario.name} on {scenario.robot}, seed {args.seed}: the paper's outcome {held}",
+                    title=f"{name} on {scenario.robot}, seed {args.seed}: the paper's outcome {held}",
                     events=disturbance_events(result.run))
     dev = {k: comparison[k]["path_deviation"]["max_m"] for k in ("nominal", "robust")}
-    print(f"{scenario.name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
+    print(f"{name} seed {args.seed}: nominal {'FELL' if comparison['nominal']['fell'] else 'walked'}, "
           f"{labels['robust']} {'FELL' if comparison['robust']['fell'] else 'walked'}; path deviation (stride-averaged "
           f"max) nominal {dev['nominal']} m, {labels['robust']} {dev['robust']} m; expected outcome: "
           f"{'yes' if comparison['expected_outcome'] else 'NO'}")
@@ -134,6 +138,9 @@ def cmd_compare(args) -> int:
     if args.scenario is not None:
         _require(args)
         return _compare_scenario(args)
+    if args.load_factor is not None:
+        raise ParameterError("--load-factor scales a named scenario's disturbances; without a scenario give them "
+                             "with --force/--push")
     for name, default in (("sim", "lip"), ("robot", "g1"), ("vx", 0.2), ("vy", 0.0), ("omega", 0.0), ("duration", 10.0)):
         if getattr(args, name) is None:
             setattr(args, name, default)

@@ -226,6 +226,7 @@ def run_scenario(
     whole_body: str | None = None,
     sensing: str = "ideal",
     mismatch: ModelMismatch = NO_MISMATCH,
+    load_factor: float = 1.0,
 ) -> ScenarioResult:
     """Run the nominal and the robust controller on one seed of ``scenario`` in MuJoCo.
 
@@ -249,6 +250,8 @@ def run_scenario(
         by default).
     mismatch : ModelMismatch
         How the simulated robot differs from the controllers' model (none by default).
+    load_factor : float
+        The scenario's own disturbances times this (:func:`realise`; 1 by default).
     """
     from pathlib import Path
 
@@ -258,7 +261,7 @@ def run_scenario(
         scenario = get_scenario(scenario)
     if duration_s is not None:
         scenario = replace(scenario, duration_s=duration_s)
-    realised = realise(scenario, seed, extra_forces)
+    realised = realise(scenario, seed, extra_forces, load_factor=load_factor)
     results = {}
     for label, spec in (("nominal", realised.nominal), ("robust", realised.robust)):
         spec = replace(spec, sensing=sensing, mismatch=mismatch)

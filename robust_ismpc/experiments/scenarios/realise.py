@@ -191,8 +191,16 @@ def _reference_com(robot_spec, spec: RunSpec, t_s: float) -> np.ndarray:
     return np.asarray(reference.com_pos_m[:2] if reference is not None else com0[:2], float), plan
 
 
+def check_load_factor(load_factor) -> float:
+    """``load_factor`` as a float when it is a finite number > 0 (:func:`realise`), else ParameterError."""
+    if isinstance(load_factor, bool) or not (isinstance(load_factor, (int, float)) and math.isfinite(load_factor)
+                                             and load_factor > 0):
+        raise ParameterError(f"load_factor must be a finite number > 0, got {load_factor!r}")
+    return float(load_factor)
+
+
 def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWindow, ...] = (),
-            mpc: MpcParams | None = None) -> ScenarioRun:
+            mpc: MpcParams | None = None, load_factor: float = 1.0) -> ScenarioRun:
     """One seed of ``scenario``: scaled disturbances, run specs and scene items.
 
     Parameters
@@ -203,11 +211,17 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     extra_forces : tuple of ForceWindow
         Forces on the torso added to the scenario's own (``--force``/``--push``), unscaled.
     mpc : MpcParams, optional
+    load_factor : float
+        The scenario's own disturbances times this (> 0; 1: the scenario): the bag's and the
+        ball's masses (the ball at the same speed, so its momentum) and the forces' magnitudes.
+        The axis of a frontier (``benchmarks/scenario_frontier.py``); ``extra_forces`` are not
+        scaled.
 
     Raises
     ------
     ParameterError
-        Unknown scenario, bad seed, or a ball that would have to be released before t = 0.
+        Unknown scenario, bad seed or load factor, or a ball that would have to be released
+        before t = 0.
     """
     from ...sim.model import load_robot
     from ...sim.scene import Payload, SwingingBall
@@ -216,12 +230,14 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
         scenario = get_scenario(scenario)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ParameterError(f"seed must be an integer >= 0, got {seed!r}")
+    check_load_factor(load_factor)
     robot_spec = load_robot(scenario.robot)
     mass = float(robot_spec.mass_kg)
     shift, scale = scenario.variation.draw(seed)
     com_height, sole_length = float(robot_spec.com_height_m), float(robot_spec.sole_length_m)
     windows = tuple(
-        f.window(mass, com_height, sole_length, shift if f.jitter else 0.0, scale if f.jitter else 1.0)
+        f.window(mass, com_height, sole_length, shift if f.jitter else 0.0,
+                 (scale if f.jitter else 1.0) * load_factor)
         for f in scenario.forces
     ) + tuple(extra_forces)
     base = RunSpec(robot=scenario.robot, sim="mujoco", modules=(), command=scenario.command,
@@ -230,7 +246,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     details: dict = {
         "scenario": scenario.name, "seed": seed, "robot": scenario.robot, "robot_mass_kg": round(mass, 4),
         "robot_com_height_m": round(com_height, 4), "robot_sole_length_m": round(sole_length, 4),
-        "time_shift_s": round(shift, 4), "magnitude_factor": round(scale, 4),
+        "time_shift_s": round(shift, 4), "magnitude_factor": round(scale, 4), "load_factor": load_factor,
         "force_factor": [round(f.factor(mass, com_height, sole_length), 5) for f in scenario.forces],
         "forces": [
             {"fx_n": round(w.fx_n, 4), "fy_n": round(w.fy_n, 4), "t_start_s": round(w.t_start_s, 4),
@@ -241,7 +257,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
     items = []
     if scenario.bag is not None:
         bag = scenario.bag
-        bag_mass = bag.reference_mass_kg * mass / bag.reference_robot_mass_kg * scale
+        bag_mass = bag.reference_mass_kg * mass / bag.reference_robot_mass_kg * scale * load_factor
         link = bag.link or right_arm_end(robot_spec)
         lever = _lateral_offset_m(robot_spec, link, bag.attach_offset_m)
         items.append(Payload(mass_kg=bag_mass, rope_length_m=bag.rope_length_m, link=link,
@@ -251,7 +267,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
                           "lever_m": round(lever, 4)}
     if scenario.ball is not None:
         ball = scenario.ball
-        ball_mass = ball.reference_mass_kg * mass / ball.reference_robot_mass_kg
+        ball_mass = ball.reference_mass_kg * mass / ball.reference_robot_mass_kg * load_factor
         # Magnitude variation acts on the impact speed through the rope length (v ~ sqrt(L)), so
         # the ball is released from the same angle on every seed.
         release_angle = ball.release_angle_rad

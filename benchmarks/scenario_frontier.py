@@ -1,0 +1,145 @@
+"""How much of a paper scenario's disturbance each controller holds: a frontier per seed.
+
+Usage:
+    python benchmarks/scenario_frontier.py SCENARIO [--seeds 0-9] [--upper 4] [--resolution 0.05]
+        [--sensing ideal|realistic] [--workers 2] [--json OUT.json]
+
+The scenario's own disturbances (the bag's or the ball's mass, the forces' magnitudes) are
+multiplied by a load factor (:func:`~robust_ismpc.experiments.scenarios.realise`, ``load_factor``;
+1 = the scenario as ``ismpc compare SCENARIO --seed N`` runs it), and a bisection on that factor
+over ``(0, upper]`` (``upper`` > 1) finds, per seed and controller (nominal; robust with the scenario's modules):
+
+* ``walks``: the largest factor at which the run reaches its end without a fall or a persistent
+  infeasible QP (``summary["fell"]``);
+* ``keeps path`` (scenarios whose paper outcome is a path kept, paper-bag): the largest factor at
+  which it also keeps its stride-averaged path deviation below 3 cm (``DEVIATION_MIN_M``).
+
+Each bisection probes the factor 1 first (the scenario's own outcome), then halves its bracket
+to ``resolution``; it assumes one boundary (a run that fails at a factor between two that hold
+reads as the lower boundary's neighbour). Prints one markdown row per seed and a summary row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import replace
+
+import numpy as np
+
+CRITERIA = ("walks", "keeps path")
+CONTROLLERS = ("nominal", "robust")
+
+
+def largest(survives: Callable[[float], bool], upper: float, resolution: float) -> tuple[float, dict]:
+    """Bisection on the load factor: (largest factor found to hold, {factor: held}).
+
+    Probes 1 first, then ``upper`` (> 1) if 1 holds; returns ``upper`` when it holds and 0 when
+    no probe down to ``resolution`` does.
+    """
+    probes: dict[float, bool] = {}
+
+    def probe(k: float) -> bool:
+        probes[round(k, 6)] = held = survives(k)
+        return held
+
+    if probe(1.0):
+        if probe(upper):
+            return upper, probes
+        lo, hi = 1.0, upper
+    else:
+        lo, hi = 0.0, 1.0
+    while hi - lo > resolution:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if probe(mid) else (lo, mid)
+    return lo, probes
+
+
+def frontier(scenario: str, seed: int, controller: str, criterion: str, upper: float, resolution: float,
+             sensing: str) -> dict:
+    """One cell of the table: the bisection of ``criterion`` for ``controller`` on ``seed``."""
+    logging.disable(logging.WARNING)
+    from robust_ismpc.experiments.scenarios import realise
+    from robust_ismpc.experiments.scenarios.compare import DEVIATION_MIN_M, path_deviation
+    from robust_ismpc.runs.mujoco import run_mujoco_spec
+
+    def survives(k: float) -> bool:
+        realised = realise(scenario, seed, load_factor=k)
+        spec = replace(realised.robust if controller == "robust" else realised.nominal, sensing=sensing)
+        result = run_mujoco_spec(spec, scene_items=realised.scene_items)
+        if result.summary["fell"]:
+            return False
+        if criterion == "walks":
+            return True
+        deviation = path_deviation(result.trace, realised.scenario.command)["max_m"]
+        return deviation is not None and deviation < DEVIATION_MIN_M
+
+    value, probes = largest(survives, upper, resolution)
+    return {"seed": seed, "controller": controller, "criterion": criterion, "factor": value, "probes": probes}
+
+
+def _seeds(text: str) -> list[int]:
+    if "-" in text:
+        first, last = (int(v) for v in text.split("-", 1))
+        return list(range(first, last + 1))
+    return [int(v) for v in text.split(",") if v]
+
+
+def main() -> None:
+    from robust_ismpc.experiments.scenarios import SCENARIOS
+    from robust_ismpc.robots.sensing import SENSING_PRESETS
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scenario", choices=sorted(SCENARIOS))
+    parser.add_argument("--seeds", default="0-9", help="seeds, as 0-9 or 0,3,5 (default 0-9)")
+    parser.add_argument("--upper", type=float, default=4.0, help="largest load factor tried (4)")
+    parser.add_argument("--resolution", type=float, default=0.05, help="bisection resolution (0.05)")
+    parser.add_argument("--sensing", default="ideal", choices=sorted(SENSING_PRESETS))
+    parser.add_argument("--workers", type=int, default=2, help="processes (2)")
+    parser.add_argument("--json", default=None, help="also write every probe here")
+    args = parser.parse_args()
+    if not (args.upper > 1 and 0 < args.resolution < 1 and args.workers >= 1):
+        parser.error("need --upper > 1, 0 < --resolution < 1 and --workers >= 1")
+    try:
+        seeds = _seeds(args.seeds)
+    except ValueError:
+        parser.error(f"--seeds must read like 0-9 or 0,3,5, got {args.seeds!r}")
+    criteria = CRITERIA if SCENARIOS[args.scenario].expect == "deviates" else CRITERIA[:1]
+    cells = [(s, c, k) for s in seeds for c in CONTROLLERS for k in criteria]
+    results: dict[tuple, dict] = {}
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = [pool.submit(frontier, args.scenario, s, c, k, args.upper, args.resolution, args.sensing)
+                   for s, c, k in cells]
+        for done, future in enumerate(as_completed(futures), 1):
+            cell = future.result()
+            results[(cell["seed"], cell["controller"], cell["criterion"])] = cell
+            print(f"[{done}/{len(cells)}] seed {cell['seed']} {cell['controller']} {cell['criterion']}: "
+                  f"{cell['factor']:.3f}", file=sys.stderr, flush=True)
+    columns = [(c, k) for k in criteria for c in CONTROLLERS]
+    print("| seed | " + " | ".join(f"{c} {k}" for c, k in columns) + " |")
+    print("|---|" + "---|" * len(columns))
+    for s in seeds:
+        print(f"| {s} | " + " | ".join(f"{results[(s, c, k)]['factor']:.2f}" for c, k in columns) + " |")
+    summary = []
+    for c, k in columns:
+        values = np.array([results[(s, c, k)]["factor"] for s in seeds])
+        summary.append(f"{values.min():.2f} / {np.median(values):.2f} / {values.max():.2f}")
+    print("| min / median / max | " + " | ".join(summary) + " |")
+    for k in criteria:
+        above = sum(results[(s, "robust", k)]["factor"] > results[(s, "nominal", k)]["factor"] for s in seeds)
+        below = sum(results[(s, "robust", k)]["factor"] < results[(s, "nominal", k)]["factor"] for s in seeds)
+        print(f"\n{k}: robust above nominal on {above} of {len(seeds)} seeds, below on {below}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"scenario": args.scenario, "sensing": args.sensing, "upper": args.upper,
+                       "resolution": args.resolution,
+                       "cells": [{**cell, "probes": {str(k): v for k, v in cell["probes"].items()}}
+                                 for cell in results.values()]}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
