@@ -469,18 +469,20 @@ def test_an_infeasible_cycle_within_the_sensors_noise_keeps_the_step_timing():
     assert outcomes["push"][0] >= 1
 
 
-def test_the_single_supports_margin_does_not_re_time_on_the_sensors_noise():
+@pytest.mark.parametrize("modules", [MODULES, ("timing",)], ids=["all modules", "timing alone"])
+def test_the_single_supports_margin_does_not_re_time_on_the_sensors_noise(modules):
     """In a single support, the model's forward DCM inside the feasibility bounds but within the
     step timing trigger's margin of them, measured as it is: with exact signals the margin re-times
     the step (spec §13.4); with noisy sensors the measurement is within their noise, nothing is
-    infeasible, and the step keeps its timing."""
+    infeasible, and the step keeps its timing. The timing alone (paper-ball's robust controller),
+    which has no disturbance estimate to test, tests the shifted DCM alone."""
     from robust_ismpc.estimation.estimator import EstimatorParams
 
     noisy = EstimatorParams(com_pos_noise_m=0.005, com_vel_noise_mps=0.05, acc_noise_mps2=0.5,
                             sensor_vel_noise_mps=0.03, sensor_contact_acc_noise_mps2=0.28)
     outcomes = {}
     for name, estimator in (("exact", EstimatorParams()), ("noisy", noisy)):
-        controller = RobustIsmpcController(ROBOT, MpcParams(), estimator=estimator)
+        controller = RobustIsmpcController(ROBOT, MpcParams(), modules=modules, estimator=estimator)
         plan = plan_footsteps(ROBOT, WalkCommand(0.2), 12.0, np.array([0.0, 0.1]), np.array([0.0, -0.1]))
         controller.reset(plan, np.zeros(2))
         t = _walk_open_loop_to_single_support(controller, plan, 5)

@@ -390,20 +390,23 @@ class RobustIsmpcController(IsmpcController):
         sample's noise in the DCM, σ_v / η, of the model's prediction with the previous cycle's
         w̃. A re-timing is a lasting change of the gait: made on noise, steps shortened one cycle
         after another swing the robot (and pump a load hanging from it). A push moves ŵ away from
-        w̃ at once and is re-timed for as before. False with exact signals (σ = 0), in the
-        initial stance and without a prediction this cycle.
+        w̃ at once and is re-timed for as before. Without the observer (the timing alone, w̃ = 0)
+        the shifted DCM's test alone. False with exact signals (σ = 0), in the initial stance and
+        without a prediction this cycle.
         """
         observer = self.observer
-        if (observer is None or observer.exact or self.plan.step_at(state.t_s) < 2
-                or self._predicted_state is None):
+        vel_noise_mps = self.estimator.params.sensor_vel_noise_mps
+        if (self.plan.step_at(state.t_s) < 2 or self._predicted_state is None
+                or (observer.exact if observer is not None else vel_noise_mps == 0)):
             return False
         w = self.disturbance_mps2
-        if np.max(np.abs(self.disturbance_estimate_mps2 - w)) > NOISE_GATE_SIGMAS * observer.noise_std_mps2:
+        if observer is not None and (np.max(np.abs(self.disturbance_estimate_mps2 - w))
+                                     > NOISE_GATE_SIGMAS * observer.noise_std_mps2):
             return False
         predicted = self._predicted_state
         new_dcm = (self._shifted_dcm(self.state[0], self.state[1], w)
                    - self._shifted_dcm(predicted[0], predicted[1], self._previous_disturbance))
-        return bool(np.max(np.abs(new_dcm)) <= self.estimator.params.sensor_vel_noise_mps / self.eta)
+        return bool(np.max(np.abs(new_dcm)) <= vel_noise_mps / self.eta)
 
     def _retime_next_step(self, state: MpcState) -> MpcPlan | None:
         """In double support, when the QP is infeasible: re-time the coming single support to the
