@@ -2,7 +2,8 @@
 
 Usage:
     python benchmarks/scenario_frontier.py SCENARIO [--seeds 0-9] [--upper 4] [--resolution 0.05]
-        [--sensing ideal|realistic] [--workers 2] [--json OUT.json]
+        [--sensing ideal|realistic] [--workers 2] [--json OUT.json] [--plot OUT.png]
+    python benchmarks/scenario_frontier.py --replot A.json [B.json ...] --plot OUT.png
 
 The scenario's own disturbances (the bag's or the ball's mass, the forces' magnitudes) are
 multiplied by a load factor (:func:`~robust_ismpc.experiments.scenarios.realise`, ``load_factor``;
@@ -16,7 +17,9 @@ over ``(0, upper]`` (``upper`` > 1) finds, per seed and controller (nominal; rob
 
 Each bisection probes the factor 1 first (the scenario's own outcome), then halves its bracket
 to ``resolution``; it assumes one boundary (a run that fails at a factor between two that hold
-reads as the lower boundary's neighbour). Prints one markdown row per seed and a summary row.
+reads as the lower boundary's neighbour). Prints one markdown row per seed and a summary row;
+``--plot`` draws the frontiers per seed (one panel per criterion), and ``--replot`` draws them
+from earlier ``--json`` files, side by side, without running anything.
 """
 
 from __future__ import annotations
@@ -82,6 +85,35 @@ def frontier(scenario: str, seed: int, controller: str, criterion: str, upper: f
     return {"seed": seed, "controller": controller, "criterion": criterion, "factor": value, "probes": probes}
 
 
+def plot_frontiers(results: list[dict], path: str) -> None:
+    """Per seed, each controller's largest load factor, one panel per scenario and criterion.
+
+    ``results``: ``--json`` contents (keys ``scenario``, ``sensing``, ``cells``).
+    """
+    from robust_ismpc.plotting.figure import finish_figure, pyplot
+
+    panels = [(r, k) for r in results for k in CRITERIA if any(c["criterion"] == k for c in r["cells"])]
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.6), squeeze=False)
+    for ax, (result, criterion) in zip(axes[0], panels):
+        for controller, marker, colour in (("nominal", "o", "tab:gray"), ("robust", "s", "tab:blue")):
+            cells = sorted((c for c in result["cells"] if c["criterion"] == criterion and c["controller"] == controller),
+                           key=lambda c: c["seed"])
+            label = controller if controller == "nominal" else "robust (the scenario's modules)"
+            ax.plot([c["seed"] for c in cells], [c["factor"] for c in cells], marker, color=colour, label=label,
+                    linestyle="none")
+        ax.axhline(1.0, color="k", linewidth=0.8, linestyle=":", label="the scenario (K = 1)")
+        sensing = "" if result.get("sensing", "ideal") == "ideal" else f", {result['sensing']} sensing"
+        ax.set_title(f"{result['scenario']}: {criterion}{sensing}", fontsize=10)
+        ax.set_xlabel("seed")
+        ax.set_ylabel("largest load factor K held")
+        top = max(c["factor"] for c in result["cells"] if c["criterion"] == criterion)
+        ax.set_ylim(0.0, 1.1 * max(top, 1.0))
+        ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8, loc="lower left")
+    finish_figure(plt, fig, path)
+
+
 def _seeds(text: str) -> list[int]:
     if "-" in text:
         first, last = (int(v) for v in text.split("-", 1))
@@ -94,14 +126,32 @@ def main() -> None:
     from robust_ismpc.robots.sensing import SENSING_PRESETS
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("scenario", choices=sorted(SCENARIOS))
+    parser.add_argument("scenario", nargs="?", choices=sorted(SCENARIOS))
     parser.add_argument("--seeds", default="0-9", help="seeds, as 0-9 or 0,3,5 (default 0-9)")
     parser.add_argument("--upper", type=float, default=4.0, help="largest load factor tried (4)")
     parser.add_argument("--resolution", type=float, default=0.05, help="bisection resolution (0.05)")
     parser.add_argument("--sensing", default="ideal", choices=sorted(SENSING_PRESETS))
     parser.add_argument("--workers", type=int, default=2, help="processes (2)")
     parser.add_argument("--json", default=None, help="also write every probe here")
+    parser.add_argument("--plot", default=None, help="also draw the frontiers per seed here (PNG)")
+    parser.add_argument("--replot", nargs="+", default=None, metavar="JSON",
+                        help="draw --plot from these earlier --json files instead of running")
     args = parser.parse_args()
+    if args.replot is not None:
+        if args.plot is None or args.scenario is not None:
+            parser.error("--replot draws earlier results: give --plot and no scenario")
+        results = []
+        for name in args.replot:
+            try:
+                with open(name) as f:
+                    results.append(json.load(f))
+            except (OSError, ValueError) as exc:
+                parser.error(f"cannot read {name}: {exc}")
+        plot_frontiers(results, args.plot)
+        print(f"wrote {args.plot}")
+        return
+    if args.scenario is None:
+        parser.error("give a scenario (or --replot JSON... --plot PNG)")
     if not (args.upper > 1 and 0 < args.resolution < 1 and args.workers >= 1):
         parser.error("need --upper > 1, 0 < --resolution < 1 and --workers >= 1")
     try:
@@ -133,12 +183,14 @@ def main() -> None:
         above = sum(results[(s, "robust", k)]["factor"] > results[(s, "nominal", k)]["factor"] for s in seeds)
         below = sum(results[(s, "robust", k)]["factor"] < results[(s, "nominal", k)]["factor"] for s in seeds)
         print(f"\n{k}: robust above nominal on {above} of {len(seeds)} seeds, below on {below}")
+    saved = {"scenario": args.scenario, "sensing": args.sensing, "upper": args.upper,
+             "resolution": args.resolution,
+             "cells": [{**cell, "probes": {str(k): v for k, v in cell["probes"].items()}} for cell in results.values()]}
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"scenario": args.scenario, "sensing": args.sensing, "upper": args.upper,
-                       "resolution": args.resolution,
-                       "cells": [{**cell, "probes": {str(k): v for k, v in cell["probes"].items()}}
-                                 for cell in results.values()]}, f, indent=1)
+            json.dump(saved, f, indent=1)
+    if args.plot:
+        plot_frontiers([saved], args.plot)
 
 
 if __name__ == "__main__":
