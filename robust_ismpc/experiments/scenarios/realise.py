@@ -230,7 +230,7 @@ def realise(scenario: Scenario | str, seed: int = 0, extra_forces: tuple[ForceWi
         scenario = get_scenario(scenario)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ParameterError(f"seed must be an integer >= 0, got {seed!r}")
-    check_load_factor(load_factor)
+    load_factor = check_load_factor(load_factor)
     robot_spec = load_robot(scenario.robot)
     mass = float(robot_spec.mass_kg)
     shift, scale = scenario.variation.draw(seed)
