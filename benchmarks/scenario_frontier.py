@@ -27,10 +27,12 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -159,39 +161,64 @@ def main() -> None:
     except ValueError:
         parser.error(f"--seeds must read like 0-9 or 0,3,5, got {args.seeds!r}")
     criteria = CRITERIA if SCENARIOS[args.scenario].expect == "deviates" else CRITERIA[:1]
+    results = _run(args, seeds, criteria)
+    _print_table(results, seeds, criteria)
+    if args.plot:
+        plot_frontiers([_saved(args, results)], args.plot)
+
+
+def _saved(args, results: dict) -> dict:
+    """The ``--json`` content: the settings and every finished cell with its probes."""
+    return {"scenario": args.scenario, "sensing": args.sensing, "upper": args.upper, "resolution": args.resolution,
+            "cells": [{**cell, "probes": {str(k): v for k, v in cell["probes"].items()}} for cell in results.values()]}
+
+
+def _run(args, seeds: list[int], criteria) -> dict[tuple, dict]:
+    """Every cell's bisection on ``args.workers`` processes; ``--json`` is rewritten after each
+    finished cell, so that a run stopped or failed halfway keeps what it measured. A cell whose
+    runs raise is reported and recorded with its error (factor NaN)."""
+    from robust_ismpc.io import atomic_write_json
+
     cells = [(s, c, k) for s in seeds for c in CONTROLLERS for k in criteria]
     results: dict[tuple, dict] = {}
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = [pool.submit(frontier, args.scenario, s, c, k, args.upper, args.resolution, args.sensing)
-                   for s, c, k in cells]
+        futures = {pool.submit(frontier, args.scenario, s, c, k, args.upper, args.resolution, args.sensing): (s, c, k)
+                   for s, c, k in cells}
         for done, future in enumerate(as_completed(futures), 1):
-            cell = future.result()
-            results[(cell["seed"], cell["controller"], cell["criterion"])] = cell
-            print(f"[{done}/{len(cells)}] seed {cell['seed']} {cell['controller']} {cell['criterion']}: "
-                  f"{cell['factor']:.3f}", file=sys.stderr, flush=True)
+            seed, controller, criterion = futures[future]
+            try:
+                cell = future.result()
+            except Exception as exc:  # noqa: BLE001  (one failed cell must not lose the others)
+                cell = {"seed": seed, "controller": controller, "criterion": criterion, "factor": math.nan,
+                        "probes": {}, "error": f"{type(exc).__name__}: {exc}"}
+            results[(seed, controller, criterion)] = cell
+            outcome = cell.get("error") or f"{cell['factor']:.3f}"
+            print(f"[{done}/{len(cells)}] seed {seed} {controller} {criterion}: {outcome}", file=sys.stderr, flush=True)
+            if args.json:
+                atomic_write_json(Path(args.json), _saved(args, results))
+    return results
+
+
+def _print_table(results: dict, seeds: list[int], criteria) -> None:
+    """One markdown row per seed, a min / median / max row, and the seeds robust is above and
+    below nominal on (cells that failed read "error" and are left out)."""
     columns = [(c, k) for k in criteria for c in CONTROLLERS]
     print("| seed | " + " | ".join(f"{c} {k}" for c, k in columns) + " |")
     print("|---|" + "---|" * len(columns))
     for s in seeds:
-        print(f"| {s} | " + " | ".join(f"{results[(s, c, k)]['factor']:.2f}" for c, k in columns) + " |")
+        factors = (results[(s, c, k)]["factor"] for c, k in columns)
+        print(f"| {s} | " + " | ".join("error" if math.isnan(v) else f"{v:.2f}" for v in factors) + " |")
     summary = []
     for c, k in columns:
         values = np.array([results[(s, c, k)]["factor"] for s in seeds])
-        summary.append(f"{values.min():.2f} / {np.median(values):.2f} / {values.max():.2f}")
+        values = values[np.isfinite(values)]
+        summary.append(f"{values.min():.2f} / {np.median(values):.2f} / {values.max():.2f}" if values.size else "-")
     print("| min / median / max | " + " | ".join(summary) + " |")
     for k in criteria:
-        above = sum(results[(s, "robust", k)]["factor"] > results[(s, "nominal", k)]["factor"] for s in seeds)
-        below = sum(results[(s, "robust", k)]["factor"] < results[(s, "nominal", k)]["factor"] for s in seeds)
+        pairs = [(results[(s, "robust", k)]["factor"], results[(s, "nominal", k)]["factor"]) for s in seeds]
+        above = sum(r > n for r, n in pairs)
+        below = sum(r < n for r, n in pairs)
         print(f"\n{k}: robust above nominal on {above} of {len(seeds)} seeds, below on {below}")
-    saved = {"scenario": args.scenario, "sensing": args.sensing, "upper": args.upper,
-             "resolution": args.resolution,
-             "cells": [{**cell, "probes": {str(k): v for k, v in cell["probes"].items()}} for cell in results.values()]}
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(saved, f, indent=1)
-    if args.plot:
-        plot_frontiers([saved], args.plot)
-
 
 if __name__ == "__main__":
     main()
