@@ -109,7 +109,8 @@ def plot_frontiers(results: list[dict], path: str) -> None:
         ax.set_title(f"{result['scenario']}: {criterion}{sensing}", fontsize=10)
         ax.set_xlabel("seed")
         ax.set_ylabel("largest load factor K held")
-        top = max(c["factor"] for c in result["cells"] if c["criterion"] == criterion)
+        top = max((c["factor"] for c in result["cells"] if c["criterion"] == criterion and math.isfinite(c["factor"])),
+                  default=1.0)  # a cell that failed has no factor
         ax.set_ylim(0.0, 1.1 * max(top, 1.0))
         ax.grid(alpha=0.3)
     axes[0][0].legend(fontsize=8, loc="lower left")
