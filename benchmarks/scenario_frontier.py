@@ -43,25 +43,25 @@ CONTROLLERS = ("nominal", "robust")
 def largest(survives: Callable[[float], bool], upper: float, resolution: float) -> tuple[float, dict]:
     """Bisection on the load factor: (largest factor found to hold, {factor: held}).
 
-    Probes 1 first, then ``upper`` (> 1) if 1 holds; returns ``upper`` when it holds and 0 when
-    no probe down to ``resolution`` does.
+    Probes 1 first (the sweep's :func:`~robust_ismpc.experiments.sweep.bisection.bisect` on
+    [0, 1]); if 1 holds, bisects (1, ``upper``] the same way, ``upper`` first. Returns ``upper``
+    when it holds and 0 when no probe down to ``resolution`` does.
     """
-    probes: dict[float, bool] = {}
+    from robust_ismpc.experiments.sweep.bisection import bisect
 
-    def probe(k: float) -> bool:
-        probes[round(k, 6)] = held = survives(k)
-        return held
+    def iterations(width: float) -> int:  # midpoints until the bracket is within the resolution
+        return math.ceil(math.log2(width / resolution))
 
-    if probe(1.0):
-        if probe(upper):
-            return upper, probes
-        lo, hi = 1.0, upper
-    else:
-        lo, hi = 0.0, 1.0
-    while hi - lo > resolution:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if probe(mid) else (lo, mid)
-    return lo, probes
+    below = bisect(survives, 1.0, max(1, iterations(1.0)))
+    probes = {round(k, 6): held for k, held in below.trials}
+    if not below.saturated:
+        return below.frontier, probes
+    if iterations(upper - 1.0) < 1:  # (1, upper] is within the resolution: upper alone decides
+        probes[round(upper, 6)] = held = bool(survives(upper))
+        return (upper if held else 1.0), probes
+    above = bisect(lambda k: survives(1.0 + k), upper - 1.0, iterations(upper - 1.0))
+    probes.update({round(1.0 + k, 6): held for k, held in above.trials})
+    return 1.0 + above.frontier, probes
 
 
 def frontier(scenario: str, seed: int, controller: str, criterion: str, upper: float, resolution: float,
