@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/persistent_force.py ROBOT [--sim lip|mujoco] [--controllers nominal,robust]
         [--directions 0,45,...] [--cases stand_t0,...] [--sensing ideal|realistic] [--seed N]
-        [--json OUT.json]
+        [--workers 2] [--json OUT.json]
 
 For each controller and direction (0 = forward, 90 = left), bisection on the force magnitude
 [N] to a resolution of 0.25 % of the robot's weight, for these cases:
@@ -16,20 +16,27 @@ For each controller and direction (0 = forward, 90 = left), bisection on the for
 * ``walk_ramp3``: walking, ramped in over 1 s from 3 s, 9 s.
 
 A run holds the force if it reaches its end without a fall, a persistent infeasible QP or a
-diverged CoM (``summary["fell"]``). Prints one markdown row per controller and direction.
-Under ``--sensing realistic`` every run draws its sensors' noise and bias from ``--seed``: one
-trial per magnitude, so the frontier is that seed's.
+diverged CoM (``summary["fell"]``). Each bisection (one case, one onset of ``walk_on``) runs on
+one of ``--workers`` processes; progress goes to stderr, ``--json`` is rewritten after each
+finished bisection (a stopped run keeps what it measured; a bisection whose runs raise is
+recorded with its error), and one markdown row per controller and direction is printed at the
+end. Under ``--sensing realistic`` every run draws its sensors' noise and bias from ``--seed``:
+one trial per magnitude, so the frontier is that seed's.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
+import sys
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
 
 from robust_ismpc.control.modules import MODULES
 from robust_ismpc.core.planner import WalkCommand
+from robust_ismpc.experiments.sweep.bisection import bisect
+from robust_ismpc.io import atomic_write_json
 from robust_ismpc.robots.sensing import SENSING_PRESETS
 from robust_ismpc.runs.forces import ramped_force
 from robust_ismpc.runs.run import run
@@ -49,42 +56,52 @@ def holds(robot: str, sim: str, modules, vx: float, force_n: float, direction_de
 
 
 def largest(resolution_n: float, upper_n: float, survives) -> float:
-    """Bisection on [0, upper_n] to ``resolution_n``; ``upper_n`` itself if it holds."""
-    if survives(upper_n):
-        return upper_n
-    lo, hi = 0.0, upper_n
-    while hi - lo > resolution_n:
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if survives(mid) else (lo, mid)
-    return lo
+    """The sweep's bisection (:func:`~robust_ismpc.experiments.sweep.bisection.bisect`) on [0,
+    ``upper_n``], ``upper_n`` first, until the bracket is within ``resolution_n``: the largest
+    force found to hold (``upper_n`` itself if it holds, 0 if no probe does)."""
+    iterations = max(1, math.ceil(math.log2(upper_n / resolution_n)))
+    return bisect(survives, upper_n, iterations).frontier
 
 
-def frontier(robot: str, sim: str, modules, direction_deg: float, cases, sensing: str = "ideal",
-             seed: int = 0) -> dict:
+def bisection(robot: str, sim: str, controller: str, direction_deg: float, case: str, onset: int | None,
+              sensing: str = "ideal", seed: int = 0) -> float:
+    """The largest force [N] one case holds (``onset``: k of ``walk_on``, else None)."""
+    logging.disable(logging.WARNING)
+    modules = MODULES if controller == "robust" else ()
     params = gait_params(robot, sim)
     weight_n = params.mass_kg * 9.81
-    resolution, upper = 0.0025 * weight_n, 0.25 * weight_n
     vx = WALK_SPEED_MPS.get(robot, 0.2)
-    stride_s = 2 * params.T_step_s
+    speed, start, ramp, duration = {
+        "stand_t0": (0.0, 0.0, 0.0, 10.0),
+        "stand_ramp_t0": (0.0, 0.0, 1.0, 10.0),
+        "walk_t0": (vx, 0.0, 0.0, 20.0),
+        "walk_ramp_t0": (vx, 0.0, 1.0, 20.0),
+        "walk_on": (vx, 3.0 + (onset or 0) * 2 * params.T_step_s / 4, 0.0, 9.0),
+        "walk_ramp3": (vx, 3.0, 1.0, 9.0),
+    }[case]
+    return largest(0.0025 * weight_n, 0.25 * weight_n,
+                   lambda f: holds(robot, sim, modules, speed, f, direction_deg, start, ramp, duration, sensing, seed))
 
-    def case(speed, start, ramp, duration):
-        return largest(resolution, upper, lambda f: holds(robot, sim, modules, speed, f, direction_deg, start,
-                                                           ramp, duration, sensing, seed))
 
-    row: dict = {}
-    if "stand_t0" in cases:
-        row["stand_t0"] = case(0.0, 0.0, 0.0, 10.0)
-    if "stand_ramp_t0" in cases:
-        row["stand_ramp_t0"] = case(0.0, 0.0, 1.0, 10.0)
-    if "walk_t0" in cases:
-        row["walk_t0"] = case(vx, 0.0, 0.0, 20.0)
-    if "walk_ramp_t0" in cases:
-        row["walk_ramp_t0"] = case(vx, 0.0, 1.0, 20.0)
-    if "walk_on" in cases:
-        row["walk_on"] = [case(vx, 3.0 + k * stride_s / 4, 0.0, 9.0) for k in range(4)]
-    if "walk_ramp3" in cases:
-        row["walk_ramp3"] = case(vx, 3.0, 1.0, 9.0)
-    return row
+def _cells(controllers: list[str], directions: list[float], cases: list[str]) -> list[tuple]:
+    """Every bisection: (controller, direction, case, onset), the four onsets of ``walk_on`` apart."""
+    return [(c, d, case, k) for c in controllers for d in directions for case in cases
+            for k in ((0, 1, 2, 3) if case == "walk_on" else (None,))]
+
+
+def _frontiers(results: dict, controllers, directions, cases) -> dict:
+    """``{controller: {direction: {case: N, "walk_on": [N x 4]}}}`` of the finished bisections
+    (NaN where one raised, None where one has not finished)."""
+    out: dict = {}
+    for c in controllers:
+        for d in directions:
+            row = out.setdefault(c, {}).setdefault(f"{d:g}", {})
+            for case in cases:
+                if case == "walk_on":
+                    row[case] = [results.get((c, d, case, k)) for k in range(4)]
+                else:
+                    row[case] = results.get((c, d, case, None))
+    return out
 
 
 def main() -> None:
@@ -97,28 +114,51 @@ def main() -> None:
     parser.add_argument("--sensing", default="ideal", choices=sorted(SENSING_PRESETS),
                         help="what the controller reads (default ideal)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the sensors' noise and bias (0)")
-    parser.add_argument("--json", default=None, help="also write the frontiers here")
+    parser.add_argument("--workers", type=int, default=2, help="processes (2)")
+    parser.add_argument("--json", default=None, help="also write the frontiers here, after each bisection")
     args = parser.parse_args()
-    logging.disable(logging.WARNING)
     cases = [c for c in args.cases.split(",") if c]
     unknown = set(cases) - set(CASES)
     if unknown:
         parser.error(f"unknown cases {sorted(unknown)}; choose from {', '.join(CASES)}")
-    results: dict = {}
+    controllers = [c for c in args.controllers.split(",") if c]
+    if set(controllers) - {"nominal", "robust"}:
+        parser.error(f"--controllers takes nominal and robust, got {args.controllers!r}")
+    try:
+        directions = [float(d) for d in args.directions.split(",") if d]
+    except ValueError:
+        parser.error(f"--directions must be numbers [deg] separated by commas, got {args.directions!r}")
+    if args.workers < 1:
+        parser.error("--workers must be >= 1")
+    cells = _cells(controllers, directions, cases)
+    results: dict[tuple, float] = {}
+    errors: dict[str, str] = {}
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = {pool.submit(bisection, args.robot, args.sim, c, d, case, k, args.sensing, args.seed): (c, d, case, k)
+                   for c, d, case, k in cells}
+        for done, future in enumerate(as_completed(futures), 1):
+            c, d, case, k = cell = futures[future]
+            name = f"{c} {d:g} {case}" + ("" if k is None else f" onset {k}")
+            try:
+                results[cell] = future.result()
+                outcome = f"{results[cell]:.1f} N"
+            except Exception as exc:  # noqa: BLE001  (one failed bisection must not lose the others)
+                results[cell] = math.nan
+                errors[name] = outcome = f"{type(exc).__name__}: {exc}"
+            print(f"[{done}/{len(cells)}] {name}: {outcome}", file=sys.stderr, flush=True)
+            if args.json:
+                atomic_write_json(Path(args.json), {
+                    "robot": args.robot, "sim": args.sim, "sensing": args.sensing, "seed": args.seed,
+                    "frontiers_n": _frontiers(results, controllers, directions, cases), "errors": errors})
+    frontiers = _frontiers(results, controllers, directions, cases)
     print("| controller | direction | " + " | ".join(cases) + " |")
     print("|---|---|" + "---|" * len(cases))
-    for controller in args.controllers.split(","):
-        modules = MODULES if controller == "robust" else ()
-        for direction in (float(d) for d in args.directions.split(",")):
-            row = frontier(args.robot, args.sim, modules, direction, cases, args.sensing, args.seed)
-            results.setdefault(controller, {})[f"{direction:g}"] = row
-            cells = [" / ".join(f"{v:.1f}" for v in row[c]) if isinstance(row[c], list) else f"{row[c]:.1f}"
-                     for c in cases]
-            print(f"| {controller} | {direction:g} | " + " | ".join(cells) + " |", flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"robot": args.robot, "sim": args.sim, "sensing": args.sensing, "seed": args.seed,
-                       "frontiers_n": results}, f, indent=1)
+    for c in controllers:
+        for d in directions:
+            row = frontiers[c][f"{d:g}"]
+            cells_md = [" / ".join(f"{v:.1f}" for v in row[case]) if case == "walk_on" else f"{row[case]:.1f}"
+                        for case in cases]
+            print(f"| {c} | {d:g} | " + " | ".join(cells_md) + " |")
 
 
 if __name__ == "__main__":
