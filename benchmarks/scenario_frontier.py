@@ -25,12 +25,10 @@ from earlier ``--json`` files, side by side, without running anything.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import sys
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
 from pathlib import Path
 
@@ -47,19 +45,16 @@ def largest(survives: Callable[[float], bool], upper: float, resolution: float) 
     [0, 1]); if 1 holds, bisects (1, ``upper``] the same way, ``upper`` first. Returns ``upper``
     when it holds and 0 when no probe down to ``resolution`` does.
     """
-    from robust_ismpc.experiments.sweep.bisection import bisect
+    from robust_ismpc.experiments.sweep.bisection import bisect, iterations_for_resolution
 
-    def iterations(width: float) -> int:  # midpoints until the bracket is within the resolution
-        return math.ceil(math.log2(width / resolution))
-
-    below = bisect(survives, 1.0, max(1, iterations(1.0)))
+    below = bisect(survives, 1.0, iterations_for_resolution(1.0, resolution))
     probes = {round(k, 6): held for k, held in below.trials}
     if not below.saturated:
         return below.frontier, probes
-    if iterations(upper - 1.0) < 1:  # (1, upper] is within the resolution: upper alone decides
+    if upper - 1.0 <= resolution:  # (1, upper] is within the resolution: upper alone decides
         probes[round(upper, 6)] = held = bool(survives(upper))
         return (upper if held else 1.0), probes
-    above = bisect(lambda k: survives(1.0 + k), upper - 1.0, iterations(upper - 1.0))
+    above = bisect(lambda k: survives(1.0 + k), upper - 1.0, iterations_for_resolution(upper - 1.0, resolution))
     probes.update({round(1.0 + k, 6): held for k, held in above.trials})
     return 1.0 + above.frontier, probes
 
@@ -143,13 +138,13 @@ def main() -> None:
     if args.replot is not None:
         if args.plot is None or args.scenario is not None:
             parser.error("--replot draws earlier results: give --plot and no scenario")
-        results = []
-        for name in args.replot:
-            try:
-                with open(name) as f:
-                    results.append(json.load(f))
-            except (OSError, ValueError) as exc:
-                parser.error(f"cannot read {name}: {exc}")
+        from robust_ismpc.exceptions import ParameterError
+        from robust_ismpc.io import read_json
+
+        try:
+            results = [read_json(Path(name), "cells") for name in args.replot]
+        except ParameterError as exc:
+            parser.error(str(exc))
         plot_frontiers(results, args.plot)
         print(f"wrote {args.plot}")
         return
@@ -162,7 +157,12 @@ def main() -> None:
     except ValueError:
         parser.error(f"--seeds must read like 0-9 or 0,3,5, got {args.seeds!r}")
     criteria = CRITERIA if SCENARIOS[args.scenario].expect == "deviates" else CRITERIA[:1]
-    results = _run(args, seeds, criteria)
+    try:
+        results = _run(args, seeds, criteria)
+    except KeyboardInterrupt:
+        kept = f"; {args.json} keeps the finished cells" if args.json else ""
+        print(f"interrupted{kept}", file=sys.stderr)
+        raise SystemExit(130) from None
     _print_table(results, seeds, criteria)
     if args.plot:
         plot_frontiers([_saved(args, results)], args.plot)
@@ -178,25 +178,22 @@ def _run(args, seeds: list[int], criteria) -> dict[tuple, dict]:
     """Every cell's bisection on ``args.workers`` processes; ``--json`` is rewritten after each
     finished cell, so that a run stopped or failed halfway keeps what it measured. A cell whose
     runs raise is reported and recorded with its error (factor NaN)."""
+    from robust_ismpc.experiments.workers import each_completed
     from robust_ismpc.io import atomic_write_json
 
     cells = [(s, c, k) for s in seeds for c in CONTROLLERS for k in criteria]
+    tasks = [(args.scenario, s, c, k, args.upper, args.resolution, args.sensing) for s, c, k in cells]
     results: dict[tuple, dict] = {}
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        futures = {pool.submit(frontier, args.scenario, s, c, k, args.upper, args.resolution, args.sensing): (s, c, k)
-                   for s, c, k in cells}
-        for done, future in enumerate(as_completed(futures), 1):
-            seed, controller, criterion = futures[future]
-            try:
-                cell = future.result()
-            except Exception as exc:  # noqa: BLE001  (one failed cell must not lose the others)
-                cell = {"seed": seed, "controller": controller, "criterion": criterion, "factor": math.nan,
-                        "probes": {}, "error": f"{type(exc).__name__}: {exc}"}
-            results[(seed, controller, criterion)] = cell
-            outcome = cell.get("error") or f"{cell['factor']:.3f}"
-            print(f"[{done}/{len(cells)}] seed {seed} {controller} {criterion}: {outcome}", file=sys.stderr, flush=True)
-            if args.json:
-                atomic_write_json(Path(args.json), _saved(args, results))
+    for done, (i, cell, exc) in enumerate(each_completed(frontier, tasks, args.workers), 1):
+        seed, controller, criterion = cells[i]
+        if exc is not None:  # one failed cell must not lose the others
+            cell = {"seed": seed, "controller": controller, "criterion": criterion, "factor": math.nan,
+                    "probes": {}, "error": f"{type(exc).__name__}: {exc}"}
+        results[cells[i]] = cell
+        outcome = cell.get("error") or f"{cell['factor']:.3f}"
+        print(f"[{done}/{len(cells)}] seed {seed} {controller} {criterion}: {outcome}", file=sys.stderr, flush=True)
+        if args.json:
+            atomic_write_json(Path(args.json), _saved(args, results))
     return results
 
 

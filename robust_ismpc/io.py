@@ -1,4 +1,5 @@
-"""Atomic file output: a reader never sees a half-written file, even after an interrupt.
+"""Files: atomic output (a reader never sees a half-written file, even after an interrupt) and
+JSON input with one error for every way a file can be unreadable.
 
 Every file is written to a hidden temporary file in the same folder, ``.NAME.XXXX.tmp``, then
 renamed. A process killed between the two (SIGKILL, power loss) leaves that temporary file
@@ -13,6 +14,8 @@ import os
 import tempfile
 from pathlib import Path
 from typing import Any
+
+from .exceptions import ParameterError
 
 #: Suffix of the temporary files written by :func:`atomic_write_bytes` (and the video writer).
 TEMP_SUFFIX = ".tmp"
@@ -56,3 +59,22 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 def atomic_write_json(path: Path, obj: Any) -> None:
     """Write ``obj`` as indented JSON atomically."""
     atomic_write_bytes(Path(path), (json.dumps(obj, indent=2, sort_keys=False) + "\n").encode())
+
+
+def read_json(path: Path, required_key: str | None = None) -> Any:
+    """The JSON content of ``path`` (with ``required_key``: an object that has that key).
+
+    Raises
+    ------
+    ParameterError
+        The file cannot be read, is not JSON, or lacks ``required_key`` (the message names the
+        file and why).
+    """
+    try:
+        with open(path, encoding="utf-8") as f:
+            content = json.load(f)
+    except (OSError, ValueError) as exc:
+        raise ParameterError(f"cannot read {path}: {exc}") from None
+    if required_key is not None and not (isinstance(content, dict) and required_key in content):
+        raise ParameterError(f"{path} has no {required_key!r}: not a file this command wrote")
+    return content

@@ -3,37 +3,11 @@
 from __future__ import annotations
 
 import logging
-import os
-import signal
 
 from ...exceptions import ParameterError
+from ..workers import process_pool, stop_pool
 from .config import BACKENDS
 from .trials import Trial, TrialResult, run_trial
-
-
-def _die_with_parent(parent_pid: int) -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (``prctl(PR_SET_PDEATHSIG)``), so a
-    sweep killed by SIGKILL leaves no orphaned workers; exit now if the parent is already gone."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        pr_set_pdeathsig = 1
-        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):  # not Linux: the parent stops its workers on SIGINT/SIGTERM
-        pass
-    if os.getppid() != parent_pid:
-        os._exit(1)
-
-
-def _worker_init(log_level: int, parent_pid: int | None = None) -> None:
-    """Local worker: leave Ctrl-C and SIGTERM to the parent (it stops the workers), die with the
-    parent, and log like it."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if parent_pid is not None:
-        _die_with_parent(parent_pid)
-    logging.getLogger("robust_ismpc").setLevel(log_level)
 
 
 class _SerialBackend:
@@ -65,11 +39,7 @@ class _LocalBackend:
     name = "local"
 
     def __init__(self, workers: int):
-        from concurrent.futures import ProcessPoolExecutor
-
-        level = logging.getLogger("robust_ismpc").getEffectiveLevel()
-        self._pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
-                                         initargs=(level, os.getpid()))
+        self._pool = process_pool(workers)
 
     def submit(self, trial: Trial):
         return self._pool.submit(run_trial, trial)
@@ -81,16 +51,7 @@ class _LocalBackend:
         return [(f, f.result()) for f in done]
 
     def close(self, interrupted: bool = False) -> None:
-        if interrupted:
-            # The workers ignore SIGINT: stop them (trials under way are lost, not half-written);
-            # the pool then sees its processes gone and its manager thread ends.
-            processes = list((getattr(self._pool, "_processes", None) or {}).values())
-            for process in processes:
-                if process.is_alive():
-                    process.terminate()
-            for process in processes:
-                process.join(timeout=5.0)
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        stop_pool(self._pool, interrupted)
 
 
 class _RayBackend:

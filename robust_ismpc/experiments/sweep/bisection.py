@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from ...exceptions import ParameterError
@@ -19,6 +20,21 @@ def check_repeats(owner: str, repeats: object) -> int:
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1 or repeats % 2 == 0:
         raise ParameterError(f"{owner}.repeats must be an odd integer >= 1, got {repeats!r}")
     return repeats
+
+
+def iterations_for_resolution(width: float, resolution: float) -> int:
+    """Bisection magnitudes after the first that bring a bracket of ``width`` within ``resolution``.
+
+    Each one halves the bracket, so this is ``ceil(log2(width / resolution))``, at least 1
+    (:class:`Bisection` needs one).
+
+    Raises
+    ------
+    ParameterError
+        ``width`` or ``resolution`` not positive.
+    """
+    check_positive("iterations_for_resolution", width=width, resolution=resolution)
+    return max(1, math.ceil(math.log2(width / resolution)))
 
 
 class Bisection:
