@@ -24,8 +24,9 @@ recorded with its error), and one markdown row per controller and direction is p
 end. ``--plot`` draws the frontiers on polar axes, one panel per controller and one line per
 case (``walk_on``: its weakest onset), and ``--replot`` draws them from earlier ``--json``
 files without running anything (files of one robot, simulator and sensing are merged, so runs
-split by direction or case draw together; one row of panels per robot). Under ``--sensing realistic`` every run draws its sensors' noise and bias from ``--seed``:
-one trial per magnitude, so the frontier is that seed's.
+split by direction or case draw together; one row of panels per robot). Under ``--sensing
+realistic`` every run draws its sensors' noise and bias from ``--seed``: one trial per
+magnitude, so the frontier is that seed's.
 """
 
 from __future__ import annotations
@@ -145,11 +146,12 @@ def _unfinished(value) -> bool:
 
 
 def plot_frontiers(results: list[dict], path: str) -> None:
-    """Polar frontiers, one row per ``--json`` content and one panel per controller: radius the
-    largest force held [N], angle its direction (0 = forward, 90 = left), one line per case."""
+    """Polar frontiers, one row per robot (:func:`merged` contents) and one panel per controller:
+    radius the largest force held [N], angle its direction (0 = forward, 90 = left), one line per
+    case."""
     import numpy as np
 
-    from robust_ismpc.plotting.figure import pyplot
+    from robust_ismpc.plotting.figure import pyplot, save_figure
 
     panels = [(r, c) for r in results for c in r["frontiers_n"]]
     rows = len(results)
@@ -179,8 +181,6 @@ def plot_frontiers(results: list[dict], path: str) -> None:
                ncol=min(3, len(cases)), fontsize=8, frameon=False)
     fig.suptitle("Largest persistent force held [N] by direction (0° forward, 90° left)", fontsize=11)
     fig.tight_layout(rect=(0.0, 0.9 / (4.4 * rows + 0.9), 1.0, 0.97))
-    from robust_ismpc.plotting.figure import save_figure
-
     save_figure(fig, path, crop=False)
     plt.close(fig)
 
