@@ -41,6 +41,19 @@ def worker_init(log_level: int, parent_pid: int | None = None) -> None:
     logging.getLogger("robust_ismpc").setLevel(log_level)
 
 
+def check_workers(workers: object) -> int:
+    """``workers`` as a process count, an integer >= 1.
+
+    Raises
+    ------
+    ParameterError
+        Otherwise.
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    return workers
+
+
 def process_pool(workers: int):
     """A :class:`concurrent.futures.ProcessPoolExecutor` of ``workers`` processes started with
     :func:`worker_init`."""
@@ -85,9 +98,7 @@ def each_completed(function: Callable[..., Any], tasks: Sequence[tuple], workers
     ParameterError
         ``workers`` is not an integer >= 1.
     """
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
-    if workers == 1:
+    if check_workers(workers) == 1:
         for i, task in enumerate(tasks):
             try:
                 result = function(*task)

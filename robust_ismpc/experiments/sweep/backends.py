@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 from ...exceptions import ParameterError
-from ..workers import process_pool, stop_pool
+from ..workers import check_workers, process_pool, stop_pool
 from .config import BACKENDS
 from .trials import Trial, TrialResult, run_trial
 
@@ -100,8 +100,7 @@ def make_backend(backend: str, workers: int):
     """
     if backend not in BACKENDS:
         raise ParameterError(f"unknown backend {backend!r}; use one of: {', '.join(BACKENDS)}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    check_workers(workers)
     if backend == "ray":
         if not ray_available():
             raise ParameterError("--backend ray needs Ray, which is not installed: pip install ray")

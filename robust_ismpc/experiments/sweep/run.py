@@ -14,6 +14,7 @@ from ...control.modules import controller_modules
 from ...exceptions import ParameterError
 from ...io import atomic_write_bytes, atomic_write_json
 from ...runs.outputs import open_output_dir
+from ..workers import check_workers
 from .backends import make_backend, ray_available
 from .bisection import Bisection
 from .config import BACKENDS, FRONTIER_JSON, REPORT_MD, RUNS_CSV, SWEEP_JSON, SweepConfig
@@ -112,8 +113,7 @@ def run_sweep(
         raise ParameterError(f"unknown backend {backend!r}; use one of: {', '.join(BACKENDS)}")
     if backend == "ray" and not ray_available():
         raise ParameterError("--backend ray needs Ray, which is not installed: pip install ray")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ParameterError(f"workers must be an integer >= 1, got {workers!r}")
+    check_workers(workers)
     # One sweep per folder at a time (a second one would append the same trials to runs.csv).
     with open_output_dir(str(out), overwrite=True, require_empty=False):
         push_window = config.pushed_step_window()
